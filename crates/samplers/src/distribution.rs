@@ -1,0 +1,108 @@
+//! Piecewise-constant 1D distribution (pbrt-v4 §A.4.2), used for power-proportional light selection
+//! and area-proportional triangle selection.
+
+/// A discrete distribution over `n` items with probabilities proportional to non-negative weights,
+/// sampled by inverting its CDF.
+#[derive(Clone, Debug)]
+pub struct Distribution1D {
+    /// cdf[i] = Σ_{j<i} w_j / Σ w, with cdf[n] = 1.
+    cdf: Vec<f32>,
+    pmf: Vec<f32>,
+    total: f64,
+}
+
+impl Distribution1D {
+    /// Builds from weights. Returns `None` when there are no items or every weight is zero; negative
+    /// or non-finite weights are the caller's error and also give `None`.
+    pub fn new(weights: &[f32]) -> Option<Self> {
+        if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {
+            return None;
+        }
+        let total: f64 = weights.iter().map(|&w| w as f64).sum();
+        if total <= 0.0 {
+            return None;
+        }
+        let mut cdf = Vec::with_capacity(weights.len() + 1);
+        let mut acc = 0.0f64;
+        cdf.push(0.0);
+        for &w in weights {
+            acc += w as f64;
+            cdf.push((acc / total) as f32);
+        }
+        *cdf.last_mut().unwrap() = 1.0;
+        let pmf = weights.iter().map(|&w| (w as f64 / total) as f32).collect();
+        Some(Distribution1D { cdf, pmf, total })
+    }
+
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+
+    /// Sum of the weights it was built from.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// Probability of item `i`.
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf[i]
+    }
+
+    /// Samples an item; returns (index, probability, u remapped to [0,1) within the item's interval,
+    /// so the same number can be reused for a continuous choice).
+    #[inline]
+    pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        // Last index with cdf[i] <= u, skipping zero-probability items.
+        let n = self.pmf.len();
+        let mut i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .saturating_sub(1)
+            .min(n - 1);
+        while self.pmf[i] == 0.0 && i > 0 {
+            i -= 1;
+        }
+        while self.pmf[i] == 0.0 {
+            i += 1;
+        }
+        let remapped = ((u - self.cdf[i]) / self.pmf[i]).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+        (i, self.pmf[i], remapped)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_degenerate_weights() {
+        assert!(Distribution1D::new(&[]).is_none());
+        assert!(Distribution1D::new(&[0.0, 0.0]).is_none());
+        assert!(Distribution1D::new(&[1.0, -1.0]).is_none());
+        assert!(Distribution1D::new(&[1.0, f32::NAN]).is_none());
+    }
+
+    #[test]
+    fn sampling_matches_pmf_and_skips_zeros() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0, 0.0]).unwrap();
+        assert_eq!(d.pmf(2), 0.75);
+        let n = 100_000;
+        let mut counts = [0usize; 4];
+        for k in 0..n {
+            let u = (k as f32 + 0.5) / n as f32;
+            let (i, p, r) = d.sample(u);
+            assert_eq!(p, d.pmf(i));
+            assert!((0.0..1.0).contains(&r));
+            counts[i] += 1;
+        }
+        assert_eq!(counts[1] + counts[3], 0);
+        assert!((counts[0] as f32 / n as f32 - 0.25).abs() < 1e-3);
+        assert_eq!(d.sample(0.0).0, 0);
+        assert_eq!(d.sample(0.99999994).0, 2);
+    }
+}

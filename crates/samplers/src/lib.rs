@@ -1,0 +1,32 @@
+//! Sample generation for Monte Carlo integration: the [`Sampler`] trait, deterministic seeding,
+//! warps from the unit square to the domains integrators need, piecewise-constant distributions and
+//! multiple-importance-sampling heuristics.
+//!
+//! Determinism (design.md): every value depends only on (seed, pixel, sample index, dimension) — or
+//! (seed, photon index) — never on thread or tile order.
+
+mod distribution;
+mod independent;
+pub mod mis;
+mod seeding;
+pub mod warp;
+
+pub use distribution::Distribution1D;
+pub use independent::Independent;
+pub use seeding::{hash_u64s, pixel_stream, splitmix64};
+
+use glam::Vec2;
+
+/// A source of sample values in [0, 1). Used as a generic parameter so the hot calls inline.
+///
+/// Dimension layout of a camera path: pixel position (2D), lens (2D), then per bounce a fixed number
+/// of dimensions in the order the integrator documents. Independent samplers ignore the layout; the
+/// stratified and low-discrepancy samplers rely on it.
+pub trait Sampler {
+    /// Starts sample `sample_index` of `pixel` (an index into the film, row-major) for the run `seed`.
+    fn start_pixel_sample(&mut self, seed: u64, pixel: u64, sample_index: u64);
+    /// The next dimension, in [0, 1).
+    fn next_1d(&mut self) -> f32;
+    /// The next two dimensions, in [0, 1)².
+    fn next_2d(&mut self) -> Vec2;
+}
