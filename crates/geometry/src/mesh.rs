@@ -1,0 +1,246 @@
+//! Indexed triangle meshes with optional per-vertex shading normals and texture coordinates, and
+//! uniform area sampling over a whole mesh (triangle chosen ∝ area, then a uniform point in it).
+
+use crate::sampling::SurfaceSample;
+use crate::triangle::{self, DEFAULT_UV};
+use lightlab_core::{Vec2, Vec3};
+use lightlab_samplers::{Distribution1D, warp};
+use std::fmt;
+
+/// An indexed triangle mesh. Build it with [`TriangleMesh::new`], which checks the data and caches
+/// the area distribution used by [`TriangleMesh::sample_area`]; the fields stay public for reading
+/// and must not be changed afterwards (the cache would go stale).
+#[derive(Clone, Debug)]
+pub struct TriangleMesh {
+    pub positions: Vec<Vec3>,
+    /// Optional per-vertex shading normals (need not be unit length).
+    pub normals: Option<Vec<Vec3>>,
+    pub uvs: Option<Vec<Vec2>>,
+    /// Counter-clockwise triangles (seen from the front, where the geometric normal points).
+    pub indices: Vec<[u32; 3]>,
+    /// Triangle choice ∝ area; `None` when the mesh has zero area.
+    area_distribution: Option<Distribution1D>,
+    area: f32,
+}
+
+/// What is wrong with mesh data given to [`TriangleMesh::new`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum MeshError {
+    /// Triangle `triangle` refers to vertex `index`, but there are only `vertices`.
+    IndexOutOfRange {
+        triangle: usize,
+        index: u32,
+        vertices: usize,
+    },
+    /// `normals` or `uvs` (named by `what`) has `len` entries instead of one per position.
+    AttributeLength {
+        what: &'static str,
+        len: usize,
+        vertices: usize,
+    },
+    /// Position `vertex` has a NaN or infinite coordinate.
+    NonFinitePosition { vertex: usize },
+}
+
+impl fmt::Display for MeshError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MeshError::IndexOutOfRange {
+                triangle,
+                index,
+                vertices,
+            } => write!(
+                f,
+                "triangle {triangle} uses vertex {index}, but the mesh has {vertices} vertices"
+            ),
+            MeshError::AttributeLength {
+                what,
+                len,
+                vertices,
+            } => write!(
+                f,
+                "the mesh has {len} {what} for {vertices} vertices (need one per vertex)"
+            ),
+            MeshError::NonFinitePosition { vertex } => {
+                write!(f, "vertex {vertex} has a NaN or infinite coordinate")
+            }
+        }
+    }
+}
+
+impl std::error::Error for MeshError {}
+
+impl TriangleMesh {
+    /// Checks the mesh (indices in range, one normal / uv per vertex, finite positions) and caches
+    /// its area distribution. Degenerate triangles are allowed: they are never hit or sampled.
+    pub fn new(
+        positions: Vec<Vec3>,
+        normals: Option<Vec<Vec3>>,
+        uvs: Option<Vec<Vec2>>,
+        indices: Vec<[u32; 3]>,
+    ) -> Result<TriangleMesh, MeshError> {
+        let vertices = positions.len();
+        if let Some(vertex) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(MeshError::NonFinitePosition { vertex });
+        }
+        for (what, len) in [
+            ("normals", normals.as_ref().map(Vec::len)),
+            ("uvs", uvs.as_ref().map(Vec::len)),
+        ] {
+            if let Some(len) = len.filter(|&len| len != vertices) {
+                return Err(MeshError::AttributeLength {
+                    what,
+                    len,
+                    vertices,
+                });
+            }
+        }
+        for (triangle, tri) in indices.iter().enumerate() {
+            if let Some(&index) = tri.iter().find(|&&i| i as usize >= vertices) {
+                return Err(MeshError::IndexOutOfRange {
+                    triangle,
+                    index,
+                    vertices,
+                });
+            }
+        }
+        let mut mesh = TriangleMesh {
+            positions,
+            normals,
+            uvs,
+            indices,
+            area_distribution: None,
+            area: 0.0,
+        };
+        let areas: Vec<f32> = (0..mesh.indices.len())
+            .map(|i| mesh.triangle_area(i))
+            .collect();
+        mesh.area_distribution = Distribution1D::new(&areas);
+        mesh.area = mesh
+            .area_distribution
+            .as_ref()
+            .map_or(0.0, |d| d.total() as f32);
+        Ok(mesh)
+    }
+
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.indices.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.indices.is_empty()
+    }
+
+    /// The three vertex positions of triangle `i`.
+    #[inline]
+    pub fn vertices(&self, i: usize) -> [Vec3; 3] {
+        self.indices[i].map(|k| self.positions[k as usize])
+    }
+
+    /// The (u, v) of triangle `i`'s vertices (pbrt's default (0,0), (1,0), (1,1) without uvs).
+    #[inline]
+    pub fn vertex_uvs(&self, i: usize) -> [Vec2; 3] {
+        match &self.uvs {
+            Some(uvs) => self.indices[i].map(|k| uvs[k as usize]),
+            None => DEFAULT_UV,
+        }
+    }
+
+    pub fn triangle_area(&self, i: usize) -> f32 {
+        let [p0, p1, p2] = self.vertices(i);
+        0.5 * (p1 - p0).cross(p2 - p0).length()
+    }
+
+    /// Total surface area.
+    pub fn area(&self) -> f32 {
+        self.area
+    }
+
+    /// Unit shading normal at barycentrics `b` of triangle `i`: interpolated vertex normals, or
+    /// `ng` when the mesh has none or they cancel.
+    #[inline]
+    pub(crate) fn shading_normal(&self, i: usize, b: [f32; 3], ng: Vec3) -> Vec3 {
+        match &self.normals {
+            Some(normals) => {
+                let [n0, n1, n2] = self.indices[i].map(|k| normals[k as usize]);
+                (b[0] * n0 + b[1] * n1 + b[2] * n2)
+                    .try_normalize()
+                    .unwrap_or(ng)
+            }
+            None => ng,
+        }
+    }
+
+    /// A point uniform over the whole mesh (pdf 1 / area): `u.x` picks the triangle ∝ area and is
+    /// then reused, remapped, for the point inside it (pbrt-v4 §A.4.2 and §6.5.4). A mesh of zero
+    /// area returns pdf 0.
+    pub fn sample_area(&self, u: Vec2) -> SurfaceSample {
+        let Some(distribution) = &self.area_distribution else {
+            return SurfaceSample {
+                p: self.positions.first().copied().unwrap_or(Vec3::ZERO),
+                p_error: Vec3::ZERO,
+                n: Vec3::Z,
+                pdf: 0.0,
+            };
+        };
+        let (i, _, ux) = distribution.sample(u.x);
+        let v = self.vertices(i);
+        let b12 = warp::square_to_uniform_triangle(Vec2::new(ux, u.y));
+        let b = [1.0 - b12.x - b12.y, b12.x, b12.y];
+        let (p, p_error) = triangle::point_with_error(&v, b, 6);
+        SurfaceSample {
+            p,
+            p_error,
+            // Sampled triangles have positive area, so the normal exists.
+            n: triangle::geometric_normal(&v).unwrap_or(Vec3::Z),
+            pdf: 1.0 / self.area,
+        }
+    }
+
+    /// Density of [`TriangleMesh::sample_area`] per unit area.
+    pub fn pdf_area(&self) -> f32 {
+        if self.area > 0.0 {
+            1.0 / self.area
+        } else {
+            0.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn new_rejects_bad_data() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        assert!(matches!(
+            TriangleMesh::new(p.clone(), None, None, vec![[0, 1, 3]]),
+            Err(MeshError::IndexOutOfRange { index: 3, .. })
+        ));
+        assert!(matches!(
+            TriangleMesh::new(p.clone(), Some(vec![Vec3::Z]), None, vec![[0, 1, 2]]),
+            Err(MeshError::AttributeLength {
+                what: "normals",
+                ..
+            })
+        ));
+        assert!(matches!(
+            TriangleMesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::NAN], None, None, vec![]),
+            Err(MeshError::NonFinitePosition { vertex: 2 })
+        ));
+        let m = TriangleMesh::new(p, None, None, vec![[0, 1, 2]]).unwrap();
+        assert_eq!(m.area(), 0.5);
+    }
+
+    #[test]
+    fn zero_area_mesh_has_zero_pdf() {
+        let m = TriangleMesh::new(vec![Vec3::ZERO, Vec3::X], None, None, vec![[0, 1, 1]]).unwrap();
+        assert_eq!(m.area(), 0.0);
+        assert_eq!(m.pdf_area(), 0.0);
+        let s = m.sample_area(Vec2::splat(0.5));
+        assert_eq!(s.pdf, 0.0);
+        assert!(s.p.is_finite());
+    }
+}
