@@ -1,0 +1,228 @@
+//! Directional albedo ρ(wo) = ∫ f(wo, wi)|cos θi| dωi = E[weight].
+//!
+//! In importance mode this integrand is f(wi, wo)|cos θi|, the fraction of light arriving from `wo`
+//! that is scattered anywhere, so it must be ≤ 1 for every BSDF. In radiance mode the same holds for
+//! reflection; refraction is scaled by 1/η′², so the bound is max(1, 1/η′²).
+//!
+//! Monte Carlo checks use 5σ of the estimate (one-sided false-failure probability ≈ 3·10⁻⁷ per
+//! check under the normal approximation; seeds are fixed, so results are deterministic), plus 10⁻⁶
+//! for f32 rounding where every sample has the same weight (σ = 0).
+
+use crate::common::*;
+use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
+use lightlab_materials::Bsdf;
+use rand::RngExt;
+
+fn albedo(bsdf: Bsdf, wo: Vec3, mode: TransportMode, n: usize, seed: u64) -> MeanEstimate {
+    let mut rng = rng(seed);
+    let mut est = MeanEstimate::default();
+    for _ in 0..n {
+        match bsdf.sample(wo, rng.random(), uniform2(&mut rng), mode) {
+            Some(s) => est.add(s.weight),
+            None => est.add(Rgb::BLACK),
+        }
+    }
+    est
+}
+
+/// Largest albedo allowed in `mode` for `wo` (see module docs).
+fn albedo_bound(bsdf: Bsdf, wo: Vec3, mode: TransportMode) -> f64 {
+    match (bsdf, mode) {
+        (Bsdf::RoughDielectric { eta, .. }, TransportMode::Radiance) => {
+            let etap = if wo.z > 0.0 { eta } else { 1.0 / eta };
+            (1.0 / (etap * etap)).max(1.0) as f64
+        }
+        _ => 1.0,
+    }
+}
+
+#[test]
+fn albedo_is_at_most_one() {
+    let mut bsdfs = rough_conductors();
+    bsdfs.extend(rough_dielectrics());
+    bsdfs.extend(phongs());
+    // White Phong at the energy-conservation limit kd + ks = 1.
+    bsdfs.push(Bsdf::Phong {
+        kd: Rgb::splat(0.3),
+        ks: Rgb::splat(0.7),
+        exponent: 5.0,
+    });
+    for bsdf in bsdfs {
+        for wo in wos_both_sides() {
+            for mode in MODES {
+                let est = albedo(bsdf, wo, mode, 50_000, 11);
+                let bound = albedo_bound(bsdf, wo, mode);
+                for c in 0..3 {
+                    assert!(
+                        est.mean(c) <= bound + 5.0 * est.sigma(c) + 1e-6,
+                        "{bsdf:?}, wo {wo}, {mode:?}, channel {c}: albedo {} ± {} > {bound}",
+                        est.mean(c),
+                        est.sigma(c)
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn diffuse_albedo_equals_albedo() {
+    let Bsdf::Diffuse { albedo: rho } = diffuse() else {
+        unreachable!()
+    };
+    for wo in wos_both_sides() {
+        for mode in MODES {
+            let est = albedo(diffuse(), wo, mode, 10_000, 12);
+            for c in 0..3 {
+                assert!(
+                    (est.mean(c) - rho[c] as f64).abs() < 1e-5,
+                    "wo {wo}, channel {c}: {} vs {}",
+                    est.mean(c),
+                    rho[c]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn mirror_albedo_equals_reflectance() {
+    let Bsdf::Mirror { reflectance } = mirror() else {
+        unreachable!()
+    };
+    for wo in wos_both_sides() {
+        for mode in MODES {
+            let est = albedo(mirror(), wo, mode, 100, 13);
+            for c in 0..3 {
+                assert!((est.mean(c) - reflectance[c] as f64).abs() < 1e-5);
+            }
+        }
+    }
+}
+
+/// Reflected plus refracted f·|cos θi|, summed over the two discrete lobes exactly: R + T = 1 in
+/// importance mode, R + T/η′² in radiance mode. At normal incidence R = ((η − 1)/(η + 1))².
+#[test]
+fn dielectric_energy_sums_to_one() {
+    for bsdf in dielectrics() {
+        let Bsdf::Dielectric { eta } = bsdf else {
+            unreachable!()
+        };
+        for wo in wos_both_sides() {
+            let etap = if wo.z > 0.0 { eta } else { 1.0 / eta };
+            for mode in MODES {
+                let u = Vec2::splat(0.5);
+                let r = bsdf.sample(wo, 0.0, u, mode).unwrap();
+                let t = bsdf.sample(wo, 1.0 - f32::EPSILON, u, mode).unwrap();
+                assert!(!r.transmission);
+                let reflected = r.f.r * r.wi.z.abs();
+                let refracted = if t.transmission {
+                    t.f.r * t.wi.z.abs()
+                } else {
+                    // Total internal reflection: both u_lobe values chose the reflection.
+                    assert!(
+                        (reflected - 1.0).abs() < 1e-6,
+                        "{bsdf:?} wo {wo}: TIR but R != 1"
+                    );
+                    0.0
+                };
+                let total = match mode {
+                    TransportMode::Importance => reflected + refracted,
+                    TransportMode::Radiance => reflected + refracted * etap * etap,
+                };
+                assert!(
+                    (total - 1.0).abs() < 1e-5,
+                    "{bsdf:?}, wo {wo}, {mode:?}: R {reflected} + T {refracted} -> {total}"
+                );
+                if wo.z.abs() == 1.0 {
+                    let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+                    assert!(
+                        (reflected - f0).abs() < 1e-6,
+                        "{bsdf:?}: R {reflected} vs {f0}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The specular lobe's (n+2)/(2π) normalisation makes its albedo exactly ks at normal incidence
+/// (Lafortune & Willems 1994), so the total is kd + ks there.
+#[test]
+fn phong_albedo_at_normal_incidence_is_kd_plus_ks() {
+    for bsdf in phongs() {
+        let Bsdf::Phong { kd, ks, .. } = bsdf else {
+            unreachable!()
+        };
+        for mode in MODES {
+            let est = albedo(bsdf, Vec3::Z, mode, 200_000, 14);
+            for c in 0..3 {
+                let expect = (kd[c] + ks[c]) as f64;
+                assert!(
+                    (est.mean(c) - expect).abs() <= 5.0 * est.sigma(c) + 1e-6,
+                    "{bsdf:?}, channel {c}: {} ± {} vs {expect}",
+                    est.mean(c),
+                    est.sigma(c)
+                );
+            }
+        }
+    }
+}
+
+/// At α = 10⁻³ and normal incidence G2/G1 ≈ 1 and every microfacet normal is within ~0.1° of +z,
+/// so the albedo is the conductor Fresnel reflectance ((n−1)² + k²)/((n+1)² + k²) to ~10⁻⁵.
+#[test]
+fn rough_conductor_with_small_alpha_reflects_the_fresnel_reflectance() {
+    let bsdf = rough_conductor(Vec2::splat(1e-3));
+    for wo in [Vec3::Z, -Vec3::Z] {
+        for mode in MODES {
+            let est = albedo(bsdf, wo, mode, 10_000, 15);
+            for c in 0..3 {
+                let (n, k) = (GOLD_ETA[c], GOLD_K[c]);
+                let f0 = ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k);
+                assert!(
+                    (est.mean(c) - f0 as f64).abs() < 1e-3,
+                    "channel {c}: {} vs {f0}",
+                    est.mean(c)
+                );
+            }
+        }
+    }
+}
+
+/// At α = 10⁻³ the rough dielectric approaches the smooth one: the probability of reflection is
+/// the smooth Fresnel reflectance (binomial, 5σ plus 2·10⁻³ for the remaining roughness) and the
+/// importance-mode albedo is G2/G1 ≈ 1.
+#[test]
+fn rough_dielectric_with_small_alpha_matches_smooth_dielectric() {
+    for eta in ETAS {
+        let rough = Bsdf::RoughDielectric {
+            alpha: Vec2::splat(1e-3),
+            eta,
+        };
+        let smooth = Bsdf::Dielectric { eta };
+        for wo in [dir(0.6, 0.2), dir(0.3, 4.0), -dir(0.6, 0.2), -dir(0.3, 4.0)] {
+            let mode = TransportMode::Importance;
+            let r_smooth = smooth.sample(wo, 0.0, Vec2::ZERO, mode).unwrap().pdf as f64;
+            let mut rng = rng(16);
+            let n = 100_000;
+            let (mut reflected, mut est) = (0usize, MeanEstimate::default());
+            for _ in 0..n {
+                let s = rough.sample(wo, rng.random(), uniform2(&mut rng), mode);
+                reflected += s.is_some_and(|s| !s.transmission) as usize;
+                est.add_scalar(s.map_or(0.0, |s| s.weight.r));
+            }
+            let p = reflected as f64 / n as f64;
+            let sigma = (r_smooth * (1.0 - r_smooth) / n as f64).sqrt();
+            assert!(
+                (p - r_smooth).abs() <= 5.0 * sigma + 2e-3,
+                "eta {eta}, wo {wo}: reflected {p} vs Fresnel {r_smooth}"
+            );
+            assert!(
+                (est.mean(0) - 1.0).abs() < 2e-3,
+                "eta {eta}, wo {wo}: albedo {}",
+                est.mean(0)
+            );
+        }
+    }
+}
