@@ -1,1 +1,20 @@
-//! lightlab-scene
+//! Scenes: the RON description (`desc`), the loader that turns it into an immutable, `Sync` [`Scene`]
+//! (geometry in a BVH, materials as BSDFs, lights with power-proportional selection), and the camera.
+//!
+//! ```no_run
+//! let scene = lightlab_scene::load_scene("scenes/cornell-box.ron".as_ref()).unwrap();
+//! assert_eq!(scene.camera.width, 256);
+//! ```
+
+mod camera;
+pub mod desc;
+mod error;
+mod light;
+mod load;
+mod scene;
+
+pub use camera::Camera;
+pub use error::SceneError;
+pub use light::{Light, LightSample, spot_falloff};
+pub use load::{load_scene, parse_scene};
+pub use scene::Scene;

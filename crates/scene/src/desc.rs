@@ -1,0 +1,569 @@
+//! The RON scene format: serde types that map one-to-one onto the file, each field documented with its
+//! meaning and default. Values are checked as they are read (`try_from`), so a bad value is reported by
+//! the RON parser with the file's line and column; references between parts (material names, mesh
+//! files) are checked when the scene is built (see `load.rs`).
+//!
+//! Units: lengths in scene units, angles in degrees, radiance in W·sr⁻¹·m⁻² and intensity in W·sr⁻¹
+//! per RGB channel.
+
+use glam::Vec3;
+use lightlab_core::Rgb;
+use serde::{Deserialize, Deserializer, de};
+
+/// A whole scene file: `Scene(camera: ..., materials: {...}, shapes: [...], lights: [...])`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Scene")]
+pub struct SceneDesc {
+    /// The camera. Required.
+    pub camera: CameraDesc,
+    /// Named materials, `{"white": Diffuse(albedo: (0.7, 0.7, 0.7)), ...}`. Names must be unique.
+    /// Default: none.
+    #[serde(default, deserialize_with = "unique_map")]
+    pub materials: Vec<(String, MaterialDesc)>,
+    /// Surfaces. Default: none.
+    #[serde(default)]
+    pub shapes: Vec<ShapeDesc>,
+    /// Lights that are not surfaces (point, spot, environment). Area lights are shapes with an
+    /// `emission`. Default: none.
+    #[serde(default)]
+    pub lights: Vec<LightDesc>,
+}
+
+/// `Camera(eye: (0, 0, 3.9), target: (0, 0, 0), fov: 39.3, resolution: (256, 256))`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Camera", try_from = "CameraRaw")]
+pub struct CameraDesc {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    pub fov: f32,
+    pub resolution: (u32, u32),
+    pub lens: Lens,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Camera")]
+struct CameraRaw {
+    /// Position of the pinhole (or the lens centre). Required.
+    eye: Vec3,
+    /// A point the camera looks at. Required.
+    target: Vec3,
+    /// Up direction; need not be perpendicular to the view direction. Default (0, 1, 0).
+    #[serde(default = "default_up")]
+    up: Vec3,
+    /// Full field of view in degrees along the smaller image axis, in (0, 180). Required.
+    fov: f32,
+    /// Image width and height in pixels, each ≥ 1. Required.
+    resolution: (u32, u32),
+    /// `Pinhole` or `ThinLens(aperture_radius: r, focus_distance: d)`. Default `Pinhole`.
+    #[serde(default)]
+    lens: Lens,
+}
+
+fn default_up() -> Vec3 {
+    Vec3::Y
+}
+
+/// The camera's lens model. Pixels use a box filter: a sample counts only in its own pixel.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Lens {
+    /// An ideal pinhole: everything in focus.
+    #[default]
+    Pinhole,
+    /// A thin lens (Kolb et al. 1995; pbrt-v4 §5.2.3): rays leave a disk of `aperture_radius` (> 0)
+    /// and meet on the plane at `focus_distance` (> 0) along the view direction.
+    ThinLens { aperture_radius: f32, focus_distance: f32 },
+}
+
+impl TryFrom<CameraRaw> for CameraDesc {
+    type Error = String;
+    fn try_from(c: CameraRaw) -> Result<Self, String> {
+        finite_vec("camera eye", c.eye)?;
+        finite_vec("camera target", c.target)?;
+        finite_vec("camera up", c.up)?;
+        let view = c.target - c.eye;
+        if view.length_squared() == 0.0 {
+            return Err("camera eye and target coincide: the view direction is undefined".into());
+        }
+        if view.normalize().cross(c.up.normalize_or_zero()).length() < 1e-6 {
+            return Err("camera up is zero or parallel to the view direction".into());
+        }
+        if !(c.fov > 0.0 && c.fov < 180.0) {
+            return Err(format!("camera fov must be in (0, 180) degrees, got {}", c.fov));
+        }
+        if c.resolution.0 == 0 || c.resolution.1 == 0 {
+            return Err(format!("camera resolution must be at least 1×1, got {:?}", c.resolution));
+        }
+        if let Lens::ThinLens { aperture_radius, focus_distance } = c.lens {
+            if !(aperture_radius > 0.0 && aperture_radius.is_finite()) {
+                return Err(format!("ThinLens aperture_radius must be > 0, got {aperture_radius} (use Pinhole for 0)"));
+            }
+            if !(focus_distance > 0.0 && focus_distance.is_finite()) {
+                return Err(format!("ThinLens focus_distance must be > 0, got {focus_distance}"));
+            }
+        }
+        Ok(CameraDesc { eye: c.eye, target: c.target, up: c.up, fov: c.fov, resolution: c.resolution, lens: c.lens })
+    }
+}
+
+/// A surface material. All parameters are constant over the surface.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, try_from = "MaterialRaw")]
+pub struct MaterialDesc(pub MaterialRaw);
+
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Material")]
+pub enum MaterialRaw {
+    /// Lambertian reflection, `albedo` per channel in [0, 1]. Two-sided.
+    Diffuse { albedo: Rgb },
+    /// Perfect specular reflection scaled by `reflectance` in [0, 1]. Default reflectance (1, 1, 1).
+    Mirror {
+        #[serde(default = "white")]
+        reflectance: Rgb,
+    },
+    /// Smooth dielectric interface (glass): Fresnel-weighted reflection and refraction. `ior` is the
+    /// index of refraction inside relative to outside (the side the geometric normal points to), > 0.
+    /// Default 1.5.
+    Dielectric {
+        #[serde(default = "glass_ior")]
+        ior: f32,
+    },
+    /// Rough metal: GGX microfacets (Walter et al. 2007) with complex index of refraction `eta` + i·`k`
+    /// per channel (eta > 0, k ≥ 0). Sampled by visible normals (Heitz 2018).
+    RoughConductor { roughness: Roughness, eta: Rgb, k: Rgb },
+    /// Rough glass: GGX microfacet reflection and transmission (Walter et al. 2007). `ior` as for
+    /// `Dielectric`, > 0; default 1.5.
+    RoughDielectric {
+        roughness: Roughness,
+        #[serde(default = "glass_ior")]
+        ior: f32,
+    },
+    /// Modified Phong (Lafortune and Willems 1994): diffuse `kd` plus a normalised cosⁿ lobe `ks` around
+    /// the mirror direction, `exponent` n ≥ 0. Energy conservation requires kd + ks ≤ 1 per channel.
+    Phong { kd: Rgb, ks: Rgb, exponent: f32 },
+}
+
+/// GGX roughness α (the slope-space standard deviation scale; α = 0 is clamped to the smallest value
+/// the BSDF supports). `Isotropic(α)` or `Anisotropic(αx, αy)` with αx along the surface's u tangent.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+pub enum Roughness {
+    Isotropic(f32),
+    Anisotropic(f32, f32),
+}
+
+fn white() -> Rgb {
+    Rgb::WHITE
+}
+fn glass_ior() -> f32 {
+    1.5
+}
+
+impl TryFrom<MaterialRaw> for MaterialDesc {
+    type Error = String;
+    fn try_from(m: MaterialRaw) -> Result<Self, String> {
+        match m {
+            MaterialRaw::Diffuse { albedo } => unit_rgb("Diffuse albedo", albedo)?,
+            MaterialRaw::Mirror { reflectance } => unit_rgb("Mirror reflectance", reflectance)?,
+            MaterialRaw::Dielectric { ior } => positive("Dielectric ior", ior)?,
+            MaterialRaw::RoughConductor { roughness, eta, k } => {
+                check_roughness(roughness)?;
+                for c in eta.to_array() {
+                    positive("RoughConductor eta", c)?;
+                }
+                for c in k.to_array() {
+                    if !(c >= 0.0 && c.is_finite()) {
+                        return Err(format!("RoughConductor k must be ≥ 0 and finite per channel, got {k:?}"));
+                    }
+                }
+            }
+            MaterialRaw::RoughDielectric { roughness, ior } => {
+                check_roughness(roughness)?;
+                positive("RoughDielectric ior", ior)?;
+            }
+            MaterialRaw::Phong { kd, ks, exponent } => {
+                unit_rgb("Phong kd", kd)?;
+                unit_rgb("Phong ks", ks)?;
+                if (kd + ks).max_component() > 1.0 {
+                    return Err(format!(
+                        "Phong kd + ks must be ≤ 1 per channel for energy conservation, got kd {kd:?} + ks {ks:?}"
+                    ));
+                }
+                if !(exponent >= 0.0 && exponent.is_finite()) {
+                    return Err(format!("Phong exponent must be ≥ 0, got {exponent}"));
+                }
+            }
+        }
+        Ok(MaterialDesc(m))
+    }
+}
+
+fn check_roughness(r: Roughness) -> Result<(), String> {
+    let (ax, ay) = match r {
+        Roughness::Isotropic(a) => (a, a),
+        Roughness::Anisotropic(ax, ay) => (ax, ay),
+    };
+    for a in [ax, ay] {
+        if !(a >= 0.0 && a.is_finite()) {
+            return Err(format!("roughness α must be ≥ 0 and finite, got {a}"));
+        }
+    }
+    Ok(())
+}
+
+/// `Shape(geometry: Quad(...), material: "white")`, optionally emissive and transformed.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Shape", try_from = "ShapeRaw")]
+pub struct ShapeDesc {
+    pub geometry: GeometryDesc,
+    pub material: String,
+    pub emission: Option<EmissionDesc>,
+    pub transform: TransformDesc,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Shape")]
+struct ShapeRaw {
+    /// The surface. Required.
+    geometry: GeometryDesc,
+    /// Name of an entry in `materials`. Required.
+    material: String,
+    /// Makes the shape an area light. Default: not emissive.
+    #[serde(default)]
+    emission: Option<EmissionDesc>,
+    /// Applied to the geometry: scale, then rotations in order, then translation. Default: identity.
+    #[serde(default)]
+    transform: TransformDesc,
+}
+
+impl TryFrom<ShapeRaw> for ShapeDesc {
+    type Error = String;
+    fn try_from(s: ShapeRaw) -> Result<Self, String> {
+        if s.emission.is_some() && s.geometry.local_area() == Some(0.0) {
+            return Err("emissive shape has zero area: an area light needs a surface".into());
+        }
+        if matches!(s.geometry.0, GeometryRaw::Sphere { .. }) {
+            let v = s.transform.scale;
+            if v.x != v.y || v.y != v.z {
+                return Err(format!("a Sphere accepts only a uniform scale, got {v:?}"));
+            }
+        }
+        Ok(ShapeDesc { geometry: s.geometry, material: s.material, emission: s.emission, transform: s.transform })
+    }
+}
+
+/// Surface geometry, in the shape's local coordinates (before `transform`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, try_from = "GeometryRaw")]
+pub struct GeometryDesc(pub GeometryRaw);
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Geometry")]
+pub enum GeometryRaw {
+    /// Inline triangle mesh: `positions`, `indices` as triples (counter-clockwise = front, the side the
+    /// normal cross(p1 − p0, p2 − p0) points to), optional per-vertex shading `normals`.
+    Mesh {
+        positions: Vec<Vec3>,
+        indices: Vec<(u32, u32, u32)>,
+        #[serde(default)]
+        normals: Option<Vec<Vec3>>,
+    },
+    /// Wavefront OBJ file, path relative to the scene file; triangulated on load. `normals`: use the
+    /// file's vertex normals as shading normals if it has them. Default true.
+    Obj {
+        file: String,
+        #[serde(default = "yes")]
+        normals: bool,
+    },
+    /// Parallelogram `corner + a·edge1 + b·edge2`, a, b ∈ [0, 1]; front side along edge1 × edge2.
+    Quad { corner: Vec3, edge1: Vec3, edge2: Vec3 },
+    /// Parallelogram by its four corners in order around the boundary; front side along
+    /// (p1 − p0) × (p3 − p0). The corners must form a parallelogram.
+    QuadCorners { corners: (Vec3, Vec3, Vec3, Vec3) },
+    /// Analytic sphere; the normal points outward.
+    Sphere { center: Vec3, radius: f32 },
+    /// Axis-aligned box centred at the origin with the given half-extents (> 0), outward normals;
+    /// place it with `transform`.
+    Cuboid { half_extents: Vec3 },
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl GeometryDesc {
+    /// Area before the transform, if known without reading files.
+    pub fn local_area(&self) -> Option<f32> {
+        match &self.0 {
+            GeometryRaw::Mesh { positions, indices, .. } => Some(
+                indices
+                    .iter()
+                    .map(|&(a, b, c)| {
+                        let (a, b, c) = (positions[a as usize], positions[b as usize], positions[c as usize]);
+                        0.5 * (b - a).cross(c - a).length()
+                    })
+                    .sum(),
+            ),
+            GeometryRaw::Obj { .. } => None,
+            GeometryRaw::Quad { edge1, edge2, .. } => Some(edge1.cross(*edge2).length()),
+            GeometryRaw::QuadCorners { corners: (p0, p1, _, p3) } => Some((*p1 - *p0).cross(*p3 - *p0).length()),
+            GeometryRaw::Sphere { radius, .. } => Some(4.0 * std::f32::consts::PI * radius * radius),
+            GeometryRaw::Cuboid { half_extents: h } => Some(8.0 * (h.x * h.y + h.y * h.z + h.z * h.x)),
+        }
+    }
+}
+
+impl TryFrom<GeometryRaw> for GeometryDesc {
+    type Error = String;
+    fn try_from(g: GeometryRaw) -> Result<Self, String> {
+        match &g {
+            GeometryRaw::Mesh { positions, indices, normals } => {
+                for (i, p) in positions.iter().enumerate() {
+                    finite_vec(&format!("Mesh position {i}"), *p)?;
+                }
+                if indices.is_empty() {
+                    return Err("Mesh has no triangles".into());
+                }
+                for (t, &(a, b, c)) in indices.iter().enumerate() {
+                    for v in [a, b, c] {
+                        if v as usize >= positions.len() {
+                            return Err(format!(
+                                "Mesh triangle {t} uses vertex {v}, but there are only {} positions",
+                                positions.len()
+                            ));
+                        }
+                    }
+                }
+                if let Some(ns) = normals {
+                    if ns.len() != positions.len() {
+                        return Err(format!("Mesh has {} normals for {} positions", ns.len(), positions.len()));
+                    }
+                    for (i, n) in ns.iter().enumerate() {
+                        finite_vec(&format!("Mesh normal {i}"), *n)?;
+                        if n.length_squared() == 0.0 {
+                            return Err(format!("Mesh normal {i} is zero"));
+                        }
+                    }
+                }
+            }
+            GeometryRaw::Obj { file, .. } => {
+                if file.is_empty() {
+                    return Err("Obj file name is empty".into());
+                }
+            }
+            GeometryRaw::Quad { corner, edge1, edge2 } => {
+                finite_vec("Quad corner", *corner)?;
+                finite_vec("Quad edge1", *edge1)?;
+                finite_vec("Quad edge2", *edge2)?;
+            }
+            GeometryRaw::QuadCorners { corners: (p0, p1, p2, p3) } => {
+                for (i, p) in [p0, p1, p2, p3].into_iter().enumerate() {
+                    finite_vec(&format!("QuadCorners corner {i}"), *p)?;
+                }
+                let scale = (*p1 - *p0).length().max((*p3 - *p0).length());
+                if (*p1 + *p3 - *p0 - *p2).length() > 1e-4 * scale {
+                    return Err("QuadCorners do not form a parallelogram (p0 + p2 must equal p1 + p3)".into());
+                }
+            }
+            GeometryRaw::Sphere { center, radius } => {
+                finite_vec("Sphere center", *center)?;
+                if !(*radius > 0.0 && radius.is_finite()) {
+                    return Err(format!("Sphere radius must be > 0, got {radius}"));
+                }
+            }
+            GeometryRaw::Cuboid { half_extents } => {
+                finite_vec("Cuboid half_extents", *half_extents)?;
+                if half_extents.min_element() <= 0.0 {
+                    return Err(format!("Cuboid half_extents must all be > 0, got {half_extents:?}"));
+                }
+            }
+        }
+        Ok(GeometryDesc(g))
+    }
+}
+
+/// Area emission: `(radiance: (17, 12, 4))`.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Emission", try_from = "EmissionRaw")]
+pub struct EmissionDesc {
+    pub radiance: Rgb,
+    pub two_sided: bool,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Emission")]
+struct EmissionRaw {
+    /// Emitted radiance per channel, ≥ 0, the same in every direction (Lambertian emitter). Required.
+    radiance: Rgb,
+    /// Emit from both sides. Default false: only the front side (the geometric normal's side).
+    #[serde(default)]
+    two_sided: bool,
+}
+
+impl TryFrom<EmissionRaw> for EmissionDesc {
+    type Error = String;
+    fn try_from(e: EmissionRaw) -> Result<Self, String> {
+        non_negative_rgb("emission radiance", e.radiance)?;
+        Ok(EmissionDesc { radiance: e.radiance, two_sided: e.two_sided })
+    }
+}
+
+/// `(scale: (1, 2, 1), rotate: [(axis: (0, 1, 0), degrees: 18.25)], translate: (0, -0.4, 0))`.
+/// Applied as scale, then each rotation in order, then translation.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Transform", try_from = "TransformRaw")]
+pub struct TransformDesc {
+    pub scale: Vec3,
+    pub rotate: Vec<RotationDesc>,
+    pub translate: Vec3,
+}
+
+impl Default for TransformDesc {
+    fn default() -> Self {
+        TransformDesc { scale: Vec3::ONE, rotate: Vec::new(), translate: Vec3::ZERO }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Transform")]
+struct TransformRaw {
+    /// Per-axis scale factors, non-zero. Default (1, 1, 1).
+    #[serde(default = "one")]
+    scale: Vec3,
+    /// Right-handed rotations about `axis` by `degrees`, applied in order. Default none.
+    #[serde(default)]
+    rotate: Vec<RotationDesc>,
+    /// Translation. Default (0, 0, 0).
+    #[serde(default)]
+    translate: Vec3,
+}
+
+fn one() -> Vec3 {
+    Vec3::ONE
+}
+
+/// A right-handed rotation: +90° about +y takes +x to −z.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Rotation")]
+pub struct RotationDesc {
+    pub axis: Vec3,
+    pub degrees: f32,
+}
+
+impl TryFrom<TransformRaw> for TransformDesc {
+    type Error = String;
+    fn try_from(t: TransformRaw) -> Result<Self, String> {
+        finite_vec("transform scale", t.scale)?;
+        finite_vec("transform translate", t.translate)?;
+        if t.scale.x == 0.0 || t.scale.y == 0.0 || t.scale.z == 0.0 {
+            return Err(format!("transform scale must be non-zero on every axis, got {:?}", t.scale));
+        }
+        for r in &t.rotate {
+            finite_vec("rotation axis", r.axis)?;
+            if r.axis.length_squared() == 0.0 || !r.degrees.is_finite() {
+                return Err("rotation needs a non-zero axis and finite degrees".into());
+            }
+        }
+        Ok(TransformDesc { scale: t.scale, rotate: t.rotate, translate: t.translate })
+    }
+}
+
+/// Lights that are not surfaces.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields, try_from = "LightRaw")]
+pub struct LightDesc(pub LightRaw);
+
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Light")]
+pub enum LightRaw {
+    /// Isotropic point light with radiant `intensity` (W·sr⁻¹, ≥ 0).
+    Point { position: Vec3, intensity: Rgb },
+    /// Spot light at `position` aimed at `target`: full `intensity` inside `falloff_start` degrees of
+    /// the axis, smoothstep falloff to zero at `cone_angle` degrees (pbrt-v4 §12.2.1).
+    /// 0 < falloff_start ≤ cone_angle ≤ 180; default falloff_start = cone_angle (a hard edge).
+    Spot {
+        position: Vec3,
+        target: Vec3,
+        intensity: Rgb,
+        cone_angle: f32,
+        #[serde(default)]
+        falloff_start: Option<f32>,
+    },
+    /// Constant radiance arriving from every direction at infinity (≥ 0).
+    Environment { radiance: Rgb },
+}
+
+impl TryFrom<LightRaw> for LightDesc {
+    type Error = String;
+    fn try_from(l: LightRaw) -> Result<Self, String> {
+        match l {
+            LightRaw::Point { position, intensity } => {
+                finite_vec("Point position", position)?;
+                non_negative_rgb("Point intensity", intensity)?;
+            }
+            LightRaw::Spot { position, target, intensity, cone_angle, falloff_start } => {
+                finite_vec("Spot position", position)?;
+                finite_vec("Spot target", target)?;
+                if (target - position).length_squared() == 0.0 {
+                    return Err("Spot target equals its position: the axis is undefined".into());
+                }
+                non_negative_rgb("Spot intensity", intensity)?;
+                if !(cone_angle > 0.0 && cone_angle <= 180.0) {
+                    return Err(format!("Spot cone_angle must be in (0, 180] degrees, got {cone_angle}"));
+                }
+                let start = falloff_start.unwrap_or(cone_angle);
+                if !(start > 0.0 && start <= cone_angle) {
+                    return Err(format!("Spot falloff_start must be in (0, cone_angle = {cone_angle}], got {start}"));
+                }
+            }
+            LightRaw::Environment { radiance } => non_negative_rgb("Environment radiance", radiance)?,
+        }
+        Ok(LightDesc(l))
+    }
+}
+
+fn finite_vec(what: &str, v: Vec3) -> Result<(), String> {
+    if v.is_finite() { Ok(()) } else { Err(format!("{what} must be finite, got {v:?}")) }
+}
+
+fn positive(what: &str, x: f32) -> Result<(), String> {
+    if x > 0.0 && x.is_finite() { Ok(()) } else { Err(format!("{what} must be > 0 and finite, got {x}")) }
+}
+
+fn unit_rgb(what: &str, c: Rgb) -> Result<(), String> {
+    if c.to_array().iter().all(|x| (0.0..=1.0).contains(x)) {
+        Ok(())
+    } else {
+        Err(format!("{what} must be in [0, 1] per channel (a surface cannot reflect more than it receives), got {c:?}"))
+    }
+}
+
+fn non_negative_rgb(what: &str, c: Rgb) -> Result<(), String> {
+    if c.to_array().iter().all(|x| *x >= 0.0 && x.is_finite()) {
+        Ok(())
+    } else {
+        Err(format!("{what} must be ≥ 0 and finite per channel, got {c:?}"))
+    }
+}
+
+/// Reads a RON map into an ordered list, rejecting duplicate keys (a map would silently keep the last).
+fn unique_map<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, MaterialDesc)>, D::Error> {
+    struct V;
+    impl<'de> de::Visitor<'de> for V {
+        type Value = Vec<(String, MaterialDesc)>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a map from material names to materials")
+        }
+        fn visit_map<A: de::MapAccess<'de>>(self, mut m: A) -> Result<Self::Value, A::Error> {
+            let mut out: Vec<(String, MaterialDesc)> = Vec::new();
+            while let Some((k, v)) = m.next_entry::<String, MaterialDesc>()? {
+                if out.iter().any(|(n, _)| *n == k) {
+                    return Err(de::Error::custom(format!("material \"{k}\" is defined twice")));
+                }
+                out.push((k, v));
+            }
+            Ok(out)
+        }
+    }
+    d.deserialize_map(V)
+}

@@ -1,0 +1,28 @@
+//! Scene loading errors: every message names the file, and where it can, the line and column.
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{}: cannot read the file: {source}", path.display())]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{}:{line}:{col}: {message}", path.display())]
+    Invalid { path: PathBuf, line: usize, col: usize, message: String },
+}
+
+impl SceneError {
+    /// An error at the first occurrence of `needle` in `text` (1:1 if absent).
+    pub(crate) fn at(path: &std::path::Path, text: &str, needle: &str, message: String) -> SceneError {
+        let (line, col) = locate(text, needle).unwrap_or((1, 1));
+        SceneError::Invalid { path: path.to_path_buf(), line, col, message }
+    }
+}
+
+/// 1-based line and column (in characters) of the first occurrence of `needle`.
+pub(crate) fn locate(text: &str, needle: &str) -> Option<(usize, usize)> {
+    let at = text.find(needle)?;
+    let before = &text[..at];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    Some((line, col))
+}

@@ -1,0 +1,160 @@
+//! Lights and their sampling. Area lights are shapes with emission; point, spot and environment lights
+//! are delta or infinite emitters. Light selection is proportional to emitted power (see `Scene`).
+
+use glam::{Vec2, Vec3};
+use lightlab_core::{INV_4PI, PI, Rgb};
+use lightlab_geometry::Shape;
+use lightlab_samplers::warp::{square_to_uniform_sphere, square_to_uniform_sphere_pdf};
+
+#[derive(Clone, Copy, Debug)]
+pub enum Light {
+    /// Lambertian emitter on shape `shape` with constant `radiance`.
+    Area { shape: u32, radiance: Rgb, two_sided: bool },
+    Point { position: Vec3, intensity: Rgb },
+    /// `cos_falloff_start ≥ cos_total`; smoothstep falloff between them (pbrt-v4 §12.2.1).
+    Spot { position: Vec3, axis: Vec3, intensity: Rgb, cos_total: f32, cos_falloff_start: f32 },
+    Environment { radiance: Rgb },
+}
+
+/// A direction toward a light from a reference point, with what arrives along it.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the reference point to the light.
+    pub wi: Vec3,
+    /// Incident radiance (area, environment) or intensity / d² (delta lights) along `wi`, before
+    /// visibility.
+    pub li: Rgb,
+    /// Solid-angle density of `wi` for this light (not including the light-selection probability);
+    /// 1 for delta lights.
+    pub pdf_w: f32,
+    /// Sampled point on the light (for environment lights, unused) and its error bound and normal.
+    pub p: Vec3,
+    pub p_error: Vec3,
+    pub n: Vec3,
+    pub delta: bool,
+    pub infinite: bool,
+}
+
+impl Light {
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Light::Point { .. } | Light::Spot { .. })
+    }
+
+    /// Radiance leaving an area light's surface point with geometric normal `n` in direction `w`.
+    #[inline]
+    pub fn area_le(radiance: Rgb, two_sided: bool, n: Vec3, w: Vec3) -> Rgb {
+        if two_sided || n.dot(w) > 0.0 { radiance } else { Rgb::BLACK }
+    }
+
+    /// Total emitted power Φ, used for power-proportional light selection. `scene_radius` bounds the
+    /// scene for infinite lights (pbrt-v4 §12.5.1: Φ = π r² · 4π L for a constant environment).
+    pub fn power(&self, shapes: &[Shape], scene_radius: f32) -> Rgb {
+        match *self {
+            Light::Area { shape, radiance, two_sided } => {
+                radiance * (PI * shapes[shape as usize].area() * if two_sided { 2.0 } else { 1.0 })
+            }
+            Light::Point { intensity, .. } => intensity * (4.0 * PI),
+            Light::Spot { intensity, cos_total, cos_falloff_start, .. } => {
+                // ∫ smoothstep falloff dω = 2π [(1 − cos_start) + (cos_start − cos_total)/2]
+                intensity * (2.0 * PI * ((1.0 - cos_falloff_start) + (cos_falloff_start - cos_total) / 2.0))
+            }
+            Light::Environment { radiance } => radiance * (PI * scene_radius * scene_radius * 4.0 * PI),
+        }
+    }
+
+    /// Samples incident illumination at `p` (pbrt-v4's `SampleLi`).
+    pub fn sample_li(&self, shapes: &[Shape], p: Vec3, u: Vec2) -> Option<LightSample> {
+        match *self {
+            Light::Area { shape, radiance, two_sided } => {
+                let s = shapes[shape as usize].sample_solid_angle(p, u)?;
+                let d = s.p - p;
+                let dist2 = d.length_squared();
+                if !(dist2 > 0.0) || !(s.pdf > 0.0) || !s.pdf.is_finite() {
+                    return None;
+                }
+                let wi = d / dist2.sqrt();
+                let li = Light::area_le(radiance, two_sided, s.n, -wi);
+                Some(LightSample { wi, li, pdf_w: s.pdf, p: s.p, p_error: s.p_error, n: s.n, delta: false, infinite: false })
+            }
+            Light::Point { position, intensity } => {
+                let d = position - p;
+                let dist2 = d.length_squared();
+                if !(dist2 > 0.0) {
+                    return None;
+                }
+                let wi = d / dist2.sqrt();
+                Some(LightSample { wi, li: intensity / dist2, pdf_w: 1.0, p: position, p_error: Vec3::ZERO, n: -wi, delta: true, infinite: false })
+            }
+            Light::Spot { position, axis, intensity, cos_total, cos_falloff_start } => {
+                let d = position - p;
+                let dist2 = d.length_squared();
+                if !(dist2 > 0.0) {
+                    return None;
+                }
+                let wi = d / dist2.sqrt();
+                let falloff = spot_falloff(axis.dot(-wi), cos_total, cos_falloff_start);
+                Some(LightSample {
+                    wi,
+                    li: intensity * (falloff / dist2),
+                    pdf_w: 1.0,
+                    p: position,
+                    p_error: Vec3::ZERO,
+                    n: -wi,
+                    delta: true,
+                    infinite: false,
+                })
+            }
+            Light::Environment { radiance } => {
+                let wi = square_to_uniform_sphere(u);
+                Some(LightSample { wi, li: radiance, pdf_w: square_to_uniform_sphere_pdf(wi), p: p + wi, p_error: Vec3::ZERO, n: -wi, delta: false, infinite: true })
+            }
+        }
+    }
+
+    /// Solid-angle density with which `sample_li` from `p` would produce the point `lp` (normal `ln`)
+    /// on this light (for the environment: any direction). Zero for delta lights.
+    pub fn pdf_li(&self, shapes: &[Shape], p: Vec3, lp: Vec3, ln: Vec3) -> f32 {
+        match *self {
+            Light::Area { shape, .. } => shapes[shape as usize].pdf_solid_angle(p, lp, ln),
+            Light::Point { .. } | Light::Spot { .. } => 0.0,
+            Light::Environment { .. } => INV_4PI,
+        }
+    }
+}
+
+/// Smoothstep falloff of a spot light between the cone edge and the start of the falloff
+/// (pbrt-v4 eq. 12.2 with the smoothstep of §B.2.3).
+#[inline]
+pub fn spot_falloff(cos_theta: f32, cos_total: f32, cos_falloff_start: f32) -> f32 {
+    if cos_theta >= cos_falloff_start {
+        return 1.0;
+    }
+    if cos_theta <= cos_total {
+        return 0.0;
+    }
+    let t = (cos_theta - cos_total) / (cos_falloff_start - cos_total);
+    t * t * (3.0 - 2.0 * t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spot_power_matches_integrated_falloff() {
+        let (ct, cs) = (30f32.to_radians().cos(), 20f32.to_radians().cos());
+        let l = Light::Spot { position: Vec3::ZERO, axis: Vec3::Z, intensity: Rgb::WHITE, cos_total: ct, cos_falloff_start: cs };
+        // Midpoint rule over cos θ: ∫ falloff dω = 2π ∫ falloff(cos θ) d cos θ.
+        let n = 200_000;
+        let integral: f64 = (0..n)
+            .map(|i| {
+                let c = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
+                spot_falloff(c as f32, ct, cs) as f64 * 2.0 / n as f64
+            })
+            .sum::<f64>()
+            * 2.0
+            * std::f64::consts::PI;
+        let p = l.power(&[], 1.0).r as f64;
+        assert!((p - integral).abs() < 1e-4 * p, "power {p} vs integral {integral}");
+    }
+}
