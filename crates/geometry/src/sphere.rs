@@ -133,14 +133,17 @@ impl Sphere {
     }
 
     /// The cone of directions from `ref_p` that hit the sphere: (sin² θmax, 1 − cos θmax, unit
-    /// direction to the centre), or `None` when `ref_p` is inside (or on) the sphere.
+    /// direction to the centre), or `None` when `ref_p` is inside the sphere or within 0.05 % of its
+    /// radius from the surface. Points on the sphere itself (a hit rounded to just outside) must not
+    /// take the cone: from there the cone's near intersections collapse onto `ref_p`, and the far
+    /// side, which is what such a point sees, would never be sampled. Area sampling is valid there.
     /// 1 − cos θmax is computed as sin² θmax / (1 + cos θmax), exact in form for tiny cones of far
     /// spheres where 1 − cos θmax would cancel to zero.
     fn cone(&self, ref_p: Vec3) -> Option<(f32, f32, Vec3)> {
         let to_center = self.center - ref_p;
         let dc_sq = to_center.length_squared();
         let sin2_theta_max = self.radius * self.radius / dc_sq;
-        if sin2_theta_max.is_nan() || sin2_theta_max >= 1.0 {
+        if sin2_theta_max.is_nan() || sin2_theta_max >= 0.999 {
             return None;
         }
         let cos_theta_max = (1.0 - sin2_theta_max).sqrt();
@@ -266,5 +269,37 @@ mod tests {
             s.intersect(o + Vec3::new(1.01, 0.0, 0.0), Vec3::Z, f32::INFINITY)
                 .is_none()
         );
+    }
+
+    /// From a point on the surface (rounded to either side), sampling must cover the inside of the
+    /// sphere: ∫ cos θ dω over the visible sphere = π. A cone around the centre would cover nothing.
+    #[test]
+    fn solid_angle_sampling_from_the_surface_sees_the_inside() {
+        let s = Sphere {
+            center: Vec3::new(0.3, -0.2, 0.1),
+            radius: 1.0,
+        };
+        for dir in [Vec3::X, Vec3::new(0.3, 0.4, -0.5).normalize()] {
+            for nudge in [1.0f32 - 1e-6, 1.0, 1.0 + 1e-6] {
+                let ref_p = s.center + dir * nudge;
+                let n_in = -dir;
+                let n = 64;
+                let mut sum = 0.0f64;
+                for i in 0..n {
+                    for j in 0..n {
+                        let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                        if let Some(q) = s.sample_solid_angle(ref_p, u) {
+                            let cos = (q.p - ref_p).normalize().dot(n_in).max(0.0);
+                            sum += (cos / q.pdf) as f64;
+                        }
+                    }
+                }
+                let estimate = sum / (n * n) as f64;
+                assert!(
+                    (estimate - PI as f64).abs() < 1e-2,
+                    "{dir} × {nudge}: {estimate}"
+                );
+            }
+        }
     }
 }

@@ -131,9 +131,16 @@ pub fn square_to_uniform_cone_pdf(v: Vec3, cos_theta_max: f32) -> f32 {
     }
 }
 
+/// 1 − cos θ is recovered as sin²θ / (1 + cos θ) = (x² + y²)/(1 + z) in the forward hemisphere:
+/// 1 − z from the rounded z has only a few distinct values in a tiny cone.
 #[inline]
 pub fn uniform_cone_to_square(v: Vec3, cos_theta_max: f32) -> Vec2 {
-    Vec2::new((1.0 - v.z) / (1.0 - cos_theta_max), wrap_phi(v) * INV_2PI)
+    let one_minus_cos = if v.z > 0.0 {
+        (v.x * v.x + v.y * v.y) / (1.0 + v.z)
+    } else {
+        1.0 - v.z
+    };
+    Vec2::new(one_minus_cos / (1.0 - cos_theta_max), wrap_phi(v) * INV_2PI)
 }
 
 /// Uniform barycentrics (b1, b2) on a triangle; b0 = 1 − b1 − b2 (pdf 2 per unit of barycentric

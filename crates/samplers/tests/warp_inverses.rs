@@ -108,9 +108,6 @@ fn triangle_inverse_round_trips() {
 /// Narrow cones (a distant light): `square_to_uniform_cone` keeps 1 − cos θ precise, so its
 /// inverse must too.
 #[test]
-#[ignore = "uniform_cone_to_square recomputes 1 − cos θ as 1 − z from the f32 z, which takes \
-            only ~17 values when 1 − cos θmax = 1e-6: u.x comes back 3 % off (3e-5 at \
-            cos θmax = 0.999); computing it as (x² + y²)/(1 + z) for z > 0 fixes it"]
 fn narrow_cone_inverse_round_trips() {
     for cos_theta_max in [0.999, 1.0 - 1e-6] {
         assert_direction_round_trip(

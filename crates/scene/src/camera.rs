@@ -27,8 +27,21 @@ impl Camera {
         let up = right.cross(forward);
         let (w, h) = d.resolution;
         let t = (d.fov.to_radians() * 0.5).tan();
-        let half_size = if w >= h { Vec2::new(t * w as f32 / h as f32, t) } else { Vec2::new(t, t * h as f32 / w as f32) };
-        Camera { eye: d.eye, forward, right, up, width: w, height: h, half_size, lens: d.lens }
+        let half_size = if w >= h {
+            Vec2::new(t * w as f32 / h as f32, t)
+        } else {
+            Vec2::new(t, t * h as f32 / w as f32)
+        };
+        Camera {
+            eye: d.eye,
+            forward,
+            right,
+            up,
+            width: w,
+            height: h,
+            half_size,
+            lens: d.lens,
+        }
     }
 
     pub fn pixel_count(&self) -> usize {
@@ -39,12 +52,18 @@ impl Camera {
     /// The direction is unit length.
     #[inline]
     pub fn generate_ray(&self, film: Vec2, u_lens: Vec2) -> Ray {
-        let ndc = Vec2::new(2.0 * film.x / self.width as f32 - 1.0, 1.0 - 2.0 * film.y / self.height as f32);
+        let ndc = Vec2::new(
+            2.0 * film.x / self.width as f32 - 1.0,
+            1.0 - 2.0 * film.y / self.height as f32,
+        );
         let c = ndc * self.half_size;
         let dir = self.right * c.x + self.up * c.y + self.forward;
         match self.lens {
             Lens::Pinhole => Ray::new(self.eye, dir.normalize()),
-            Lens::ThinLens { aperture_radius, focus_distance } => {
+            Lens::ThinLens {
+                aperture_radius,
+                focus_distance,
+            } => {
                 // The point on the plane of focus that the pinhole ray reaches; all lens rays meet there.
                 let focus = self.eye + dir * focus_distance;
                 let l = aperture_radius * square_to_concentric_disk(u_lens);
@@ -61,8 +80,15 @@ impl Camera {
             return None;
         }
         let c = Vec2::new(d.dot(self.right), d.dot(self.up)) / z / self.half_size;
-        let film = Vec2::new((c.x + 1.0) * 0.5 * self.width as f32, (1.0 - c.y) * 0.5 * self.height as f32);
-        (film.x >= 0.0 && film.y >= 0.0 && film.x < self.width as f32 && film.y < self.height as f32).then_some(film)
+        let film = Vec2::new(
+            (c.x + 1.0) * 0.5 * self.width as f32,
+            (1.0 - c.y) * 0.5 * self.height as f32,
+        );
+        (film.x >= 0.0
+            && film.y >= 0.0
+            && film.x < self.width as f32
+            && film.y < self.height as f32)
+            .then_some(film)
     }
 }
 
@@ -71,7 +97,14 @@ mod tests {
     use super::*;
 
     fn desc(res: (u32, u32)) -> CameraDesc {
-        CameraDesc { eye: Vec3::new(0.0, 0.0, 3.9), target: Vec3::ZERO, up: Vec3::Y, fov: 90.0, resolution: res, lens: Lens::Pinhole }
+        CameraDesc {
+            eye: Vec3::new(0.0, 0.0, 3.9),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov: 90.0,
+            resolution: res,
+            lens: Lens::Pinhole,
+        }
     }
 
     #[test]
@@ -80,8 +113,15 @@ mod tests {
             let cam = Camera::new(&desc(res));
             let (w, h) = (res.0 as f32, res.1 as f32);
             // Edge of the smaller axis is 45° off axis for a 90° fov.
-            let d = if w >= h { cam.generate_ray(Vec2::new(w * 0.5, 0.0), Vec2::ZERO).d } else { cam.generate_ray(Vec2::new(0.0, h * 0.5), Vec2::ZERO).d };
-            assert!((d.dot(cam.forward) - (0.5f32).sqrt()).abs() < 1e-5, "{res:?}");
+            let d = if w >= h {
+                cam.generate_ray(Vec2::new(w * 0.5, 0.0), Vec2::ZERO).d
+            } else {
+                cam.generate_ray(Vec2::new(0.0, h * 0.5), Vec2::ZERO).d
+            };
+            assert!(
+                (d.dot(cam.forward) - (0.5f32).sqrt()).abs() < 1e-5,
+                "{res:?}"
+            );
             // Image centre looks at the target; +x raster is +right, +y raster is down.
             let c = cam.generate_ray(Vec2::new(w * 0.5, h * 0.5), Vec2::ZERO).d;
             assert!((c - Vec3::NEG_Z).length() < 1e-6);
@@ -89,7 +129,9 @@ mod tests {
             assert!(cam.generate_ray(Vec2::new(w * 0.5, h), Vec2::ZERO).d.y < 0.0);
             // Raster position round-trips.
             let film = Vec2::new(0.3 * w, 0.8 * h);
-            let back = cam.raster_of_direction(cam.generate_ray(film, Vec2::ZERO).d).unwrap();
+            let back = cam
+                .raster_of_direction(cam.generate_ray(film, Vec2::ZERO).d)
+                .unwrap();
             assert!((back - film).length() < 1e-3);
         }
     }
@@ -97,7 +139,10 @@ mod tests {
     #[test]
     fn thin_lens_rays_meet_on_the_focal_plane() {
         let mut d = desc((64, 32));
-        d.lens = Lens::ThinLens { aperture_radius: 0.2, focus_distance: 2.0 };
+        d.lens = Lens::ThinLens {
+            aperture_radius: 0.2,
+            focus_distance: 2.0,
+        };
         let cam = Camera::new(&d);
         let film = Vec2::new(10.5, 20.25);
         let hit = |u: Vec2| {

@@ -73,7 +73,10 @@ pub enum Lens {
     Pinhole,
     /// A thin lens (Kolb et al. 1995; pbrt-v4 §5.2.3): rays leave a disk of `aperture_radius` (> 0)
     /// and meet on the plane at `focus_distance` (> 0) along the view direction.
-    ThinLens { aperture_radius: f32, focus_distance: f32 },
+    ThinLens {
+        aperture_radius: f32,
+        focus_distance: f32,
+    },
 }
 
 impl TryFrom<CameraRaw> for CameraDesc {
@@ -90,20 +93,41 @@ impl TryFrom<CameraRaw> for CameraDesc {
             return Err("camera up is zero or parallel to the view direction".into());
         }
         if !(c.fov > 0.0 && c.fov < 180.0) {
-            return Err(format!("camera fov must be in (0, 180) degrees, got {}", c.fov));
+            return Err(format!(
+                "camera fov must be in (0, 180) degrees, got {}",
+                c.fov
+            ));
         }
         if c.resolution.0 == 0 || c.resolution.1 == 0 {
-            return Err(format!("camera resolution must be at least 1×1, got {:?}", c.resolution));
+            return Err(format!(
+                "camera resolution must be at least 1×1, got {:?}",
+                c.resolution
+            ));
         }
-        if let Lens::ThinLens { aperture_radius, focus_distance } = c.lens {
+        if let Lens::ThinLens {
+            aperture_radius,
+            focus_distance,
+        } = c.lens
+        {
             if !(aperture_radius > 0.0 && aperture_radius.is_finite()) {
-                return Err(format!("ThinLens aperture_radius must be > 0, got {aperture_radius} (use Pinhole for 0)"));
+                return Err(format!(
+                    "ThinLens aperture_radius must be > 0, got {aperture_radius} (use Pinhole for 0)"
+                ));
             }
             if !(focus_distance > 0.0 && focus_distance.is_finite()) {
-                return Err(format!("ThinLens focus_distance must be > 0, got {focus_distance}"));
+                return Err(format!(
+                    "ThinLens focus_distance must be > 0, got {focus_distance}"
+                ));
             }
         }
-        Ok(CameraDesc { eye: c.eye, target: c.target, up: c.up, fov: c.fov, resolution: c.resolution, lens: c.lens })
+        Ok(CameraDesc {
+            eye: c.eye,
+            target: c.target,
+            up: c.up,
+            fov: c.fov,
+            resolution: c.resolution,
+            lens: c.lens,
+        })
     }
 }
 
@@ -131,7 +155,11 @@ pub enum MaterialRaw {
     },
     /// Rough metal: GGX microfacets (Walter et al. 2007) with complex index of refraction `eta` + i·`k`
     /// per channel (eta > 0, k ≥ 0). Sampled by visible normals (Heitz 2018).
-    RoughConductor { roughness: Roughness, eta: Rgb, k: Rgb },
+    RoughConductor {
+        roughness: Roughness,
+        eta: Rgb,
+        k: Rgb,
+    },
     /// Rough glass: GGX microfacet reflection and transmission (Walter et al. 2007). `ior` as for
     /// `Dielectric`, > 0; default 1.5.
     RoughDielectric {
@@ -173,7 +201,9 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
                 }
                 for c in k.to_array() {
                     if !(c >= 0.0 && c.is_finite()) {
-                        return Err(format!("RoughConductor k must be ≥ 0 and finite per channel, got {k:?}"));
+                        return Err(format!(
+                            "RoughConductor k must be ≥ 0 and finite per channel, got {k:?}"
+                        ));
                     }
                 }
             }
@@ -248,7 +278,12 @@ impl TryFrom<ShapeRaw> for ShapeDesc {
                 return Err(format!("a Sphere accepts only a uniform scale, got {v:?}"));
             }
         }
-        Ok(ShapeDesc { geometry: s.geometry, material: s.material, emission: s.emission, transform: s.transform })
+        Ok(ShapeDesc {
+            geometry: s.geometry,
+            material: s.material,
+            emission: s.emission,
+            transform: s.transform,
+        })
     }
 }
 
@@ -276,7 +311,11 @@ pub enum GeometryRaw {
         normals: bool,
     },
     /// Parallelogram `corner + a·edge1 + b·edge2`, a, b ∈ [0, 1]; front side along edge1 × edge2.
-    Quad { corner: Vec3, edge1: Vec3, edge2: Vec3 },
+    Quad {
+        corner: Vec3,
+        edge1: Vec3,
+        edge2: Vec3,
+    },
     /// Parallelogram by its four corners in order around the boundary; front side along
     /// (p1 − p0) × (p3 − p0). The corners must form a parallelogram.
     QuadCorners { corners: (Vec3, Vec3, Vec3, Vec3) },
@@ -295,20 +334,32 @@ impl GeometryDesc {
     /// Area before the transform, if known without reading files.
     pub fn local_area(&self) -> Option<f32> {
         match &self.0 {
-            GeometryRaw::Mesh { positions, indices, .. } => Some(
+            GeometryRaw::Mesh {
+                positions, indices, ..
+            } => Some(
                 indices
                     .iter()
                     .map(|&(a, b, c)| {
-                        let (a, b, c) = (positions[a as usize], positions[b as usize], positions[c as usize]);
+                        let (a, b, c) = (
+                            positions[a as usize],
+                            positions[b as usize],
+                            positions[c as usize],
+                        );
                         0.5 * (b - a).cross(c - a).length()
                     })
                     .sum(),
             ),
             GeometryRaw::Obj { .. } => None,
             GeometryRaw::Quad { edge1, edge2, .. } => Some(edge1.cross(*edge2).length()),
-            GeometryRaw::QuadCorners { corners: (p0, p1, _, p3) } => Some((*p1 - *p0).cross(*p3 - *p0).length()),
-            GeometryRaw::Sphere { radius, .. } => Some(4.0 * std::f32::consts::PI * radius * radius),
-            GeometryRaw::Cuboid { half_extents: h } => Some(8.0 * (h.x * h.y + h.y * h.z + h.z * h.x)),
+            GeometryRaw::QuadCorners {
+                corners: (p0, p1, _, p3),
+            } => Some((*p1 - *p0).cross(*p3 - *p0).length()),
+            GeometryRaw::Sphere { radius, .. } => {
+                Some(4.0 * std::f32::consts::PI * radius * radius)
+            }
+            GeometryRaw::Cuboid { half_extents: h } => {
+                Some(8.0 * (h.x * h.y + h.y * h.z + h.z * h.x))
+            }
         }
     }
 }
@@ -317,7 +368,11 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
     type Error = String;
     fn try_from(g: GeometryRaw) -> Result<Self, String> {
         match &g {
-            GeometryRaw::Mesh { positions, indices, normals } => {
+            GeometryRaw::Mesh {
+                positions,
+                indices,
+                normals,
+            } => {
                 for (i, p) in positions.iter().enumerate() {
                     finite_vec(&format!("Mesh position {i}"), *p)?;
                 }
@@ -336,7 +391,11 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
                 }
                 if let Some(ns) = normals {
                     if ns.len() != positions.len() {
-                        return Err(format!("Mesh has {} normals for {} positions", ns.len(), positions.len()));
+                        return Err(format!(
+                            "Mesh has {} normals for {} positions",
+                            ns.len(),
+                            positions.len()
+                        ));
                     }
                     for (i, n) in ns.iter().enumerate() {
                         finite_vec(&format!("Mesh normal {i}"), *n)?;
@@ -351,18 +410,27 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
                     return Err("Obj file name is empty".into());
                 }
             }
-            GeometryRaw::Quad { corner, edge1, edge2 } => {
+            GeometryRaw::Quad {
+                corner,
+                edge1,
+                edge2,
+            } => {
                 finite_vec("Quad corner", *corner)?;
                 finite_vec("Quad edge1", *edge1)?;
                 finite_vec("Quad edge2", *edge2)?;
             }
-            GeometryRaw::QuadCorners { corners: (p0, p1, p2, p3) } => {
+            GeometryRaw::QuadCorners {
+                corners: (p0, p1, p2, p3),
+            } => {
                 for (i, p) in [p0, p1, p2, p3].into_iter().enumerate() {
                     finite_vec(&format!("QuadCorners corner {i}"), *p)?;
                 }
                 let scale = (*p1 - *p0).length().max((*p3 - *p0).length());
                 if (*p1 + *p3 - *p0 - *p2).length() > 1e-4 * scale {
-                    return Err("QuadCorners do not form a parallelogram (p0 + p2 must equal p1 + p3)".into());
+                    return Err(
+                        "QuadCorners do not form a parallelogram (p0 + p2 must equal p1 + p3)"
+                            .into(),
+                    );
                 }
             }
             GeometryRaw::Sphere { center, radius } => {
@@ -374,7 +442,9 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
             GeometryRaw::Cuboid { half_extents } => {
                 finite_vec("Cuboid half_extents", *half_extents)?;
                 if half_extents.min_element() <= 0.0 {
-                    return Err(format!("Cuboid half_extents must all be > 0, got {half_extents:?}"));
+                    return Err(format!(
+                        "Cuboid half_extents must all be > 0, got {half_extents:?}"
+                    ));
                 }
             }
         }
@@ -404,7 +474,10 @@ impl TryFrom<EmissionRaw> for EmissionDesc {
     type Error = String;
     fn try_from(e: EmissionRaw) -> Result<Self, String> {
         non_negative_rgb("emission radiance", e.radiance)?;
-        Ok(EmissionDesc { radiance: e.radiance, two_sided: e.two_sided })
+        Ok(EmissionDesc {
+            radiance: e.radiance,
+            two_sided: e.two_sided,
+        })
     }
 }
 
@@ -420,7 +493,11 @@ pub struct TransformDesc {
 
 impl Default for TransformDesc {
     fn default() -> Self {
-        TransformDesc { scale: Vec3::ONE, rotate: Vec::new(), translate: Vec3::ZERO }
+        TransformDesc {
+            scale: Vec3::ONE,
+            rotate: Vec::new(),
+            translate: Vec3::ZERO,
+        }
     }
 }
 
@@ -456,7 +533,10 @@ impl TryFrom<TransformRaw> for TransformDesc {
         finite_vec("transform scale", t.scale)?;
         finite_vec("transform translate", t.translate)?;
         if t.scale.x == 0.0 || t.scale.y == 0.0 || t.scale.z == 0.0 {
-            return Err(format!("transform scale must be non-zero on every axis, got {:?}", t.scale));
+            return Err(format!(
+                "transform scale must be non-zero on every axis, got {:?}",
+                t.scale
+            ));
         }
         for r in &t.rotate {
             finite_vec("rotation axis", r.axis)?;
@@ -464,7 +544,11 @@ impl TryFrom<TransformRaw> for TransformDesc {
                 return Err("rotation needs a non-zero axis and finite degrees".into());
             }
         }
-        Ok(TransformDesc { scale: t.scale, rotate: t.rotate, translate: t.translate })
+        Ok(TransformDesc {
+            scale: t.scale,
+            rotate: t.rotate,
+            translate: t.translate,
+        })
     }
 }
 
@@ -497,11 +581,20 @@ impl TryFrom<LightRaw> for LightDesc {
     type Error = String;
     fn try_from(l: LightRaw) -> Result<Self, String> {
         match l {
-            LightRaw::Point { position, intensity } => {
+            LightRaw::Point {
+                position,
+                intensity,
+            } => {
                 finite_vec("Point position", position)?;
                 non_negative_rgb("Point intensity", intensity)?;
             }
-            LightRaw::Spot { position, target, intensity, cone_angle, falloff_start } => {
+            LightRaw::Spot {
+                position,
+                target,
+                intensity,
+                cone_angle,
+                falloff_start,
+            } => {
                 finite_vec("Spot position", position)?;
                 finite_vec("Spot target", target)?;
                 if (target - position).length_squared() == 0.0 {
@@ -509,32 +602,48 @@ impl TryFrom<LightRaw> for LightDesc {
                 }
                 non_negative_rgb("Spot intensity", intensity)?;
                 if !(cone_angle > 0.0 && cone_angle <= 180.0) {
-                    return Err(format!("Spot cone_angle must be in (0, 180] degrees, got {cone_angle}"));
+                    return Err(format!(
+                        "Spot cone_angle must be in (0, 180] degrees, got {cone_angle}"
+                    ));
                 }
                 let start = falloff_start.unwrap_or(cone_angle);
                 if !(start > 0.0 && start <= cone_angle) {
-                    return Err(format!("Spot falloff_start must be in (0, cone_angle = {cone_angle}], got {start}"));
+                    return Err(format!(
+                        "Spot falloff_start must be in (0, cone_angle = {cone_angle}], got {start}"
+                    ));
                 }
             }
-            LightRaw::Environment { radiance } => non_negative_rgb("Environment radiance", radiance)?,
+            LightRaw::Environment { radiance } => {
+                non_negative_rgb("Environment radiance", radiance)?
+            }
         }
         Ok(LightDesc(l))
     }
 }
 
 fn finite_vec(what: &str, v: Vec3) -> Result<(), String> {
-    if v.is_finite() { Ok(()) } else { Err(format!("{what} must be finite, got {v:?}")) }
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("{what} must be finite, got {v:?}"))
+    }
 }
 
 fn positive(what: &str, x: f32) -> Result<(), String> {
-    if x > 0.0 && x.is_finite() { Ok(()) } else { Err(format!("{what} must be > 0 and finite, got {x}")) }
+    if x > 0.0 && x.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("{what} must be > 0 and finite, got {x}"))
+    }
 }
 
 fn unit_rgb(what: &str, c: Rgb) -> Result<(), String> {
     if c.to_array().iter().all(|x| (0.0..=1.0).contains(x)) {
         Ok(())
     } else {
-        Err(format!("{what} must be in [0, 1] per channel (a surface cannot reflect more than it receives), got {c:?}"))
+        Err(format!(
+            "{what} must be in [0, 1] per channel (a surface cannot reflect more than it receives), got {c:?}"
+        ))
     }
 }
 
@@ -542,7 +651,9 @@ fn non_negative_rgb(what: &str, c: Rgb) -> Result<(), String> {
     if c.to_array().iter().all(|x| *x >= 0.0 && x.is_finite()) {
         Ok(())
     } else {
-        Err(format!("{what} must be ≥ 0 and finite per channel, got {c:?}"))
+        Err(format!(
+            "{what} must be ≥ 0 and finite per channel, got {c:?}"
+        ))
     }
 }
 
@@ -558,7 +669,9 @@ fn unique_map<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, MaterialDe
             let mut out: Vec<(String, MaterialDesc)> = Vec::new();
             while let Some((k, v)) = m.next_entry::<String, MaterialDesc>()? {
                 if out.iter().any(|(n, _)| *n == k) {
-                    return Err(de::Error::custom(format!("material \"{k}\" is defined twice")));
+                    return Err(de::Error::custom(format!(
+                        "material \"{k}\" is defined twice"
+                    )));
                 }
                 out.push((k, v));
             }

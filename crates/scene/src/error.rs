@@ -5,16 +5,34 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     #[error("{}: cannot read the file: {source}", path.display())]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{}:{line}:{col}: {message}", path.display())]
-    Invalid { path: PathBuf, line: usize, col: usize, message: String },
+    Invalid {
+        path: PathBuf,
+        line: usize,
+        col: usize,
+        message: String,
+    },
 }
 
 impl SceneError {
     /// An error at the first occurrence of `needle` in `text` (1:1 if absent).
-    pub(crate) fn at(path: &std::path::Path, text: &str, needle: &str, message: String) -> SceneError {
+    pub(crate) fn at(
+        path: &std::path::Path,
+        text: &str,
+        needle: &str,
+        message: String,
+    ) -> SceneError {
         let (line, col) = locate(text, needle).unwrap_or((1, 1));
-        SceneError::Invalid { path: path.to_path_buf(), line, col, message }
+        SceneError::Invalid {
+            path: path.to_path_buf(),
+            line,
+            col,
+            message,
+        }
     }
 }
 

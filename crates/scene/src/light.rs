@@ -9,11 +9,26 @@ use lightlab_samplers::warp::{square_to_uniform_sphere, square_to_uniform_sphere
 #[derive(Clone, Copy, Debug)]
 pub enum Light {
     /// Lambertian emitter on shape `shape` with constant `radiance`.
-    Area { shape: u32, radiance: Rgb, two_sided: bool },
-    Point { position: Vec3, intensity: Rgb },
+    Area {
+        shape: u32,
+        radiance: Rgb,
+        two_sided: bool,
+    },
+    Point {
+        position: Vec3,
+        intensity: Rgb,
+    },
     /// `cos_falloff_start ≥ cos_total`; smoothstep falloff between them (pbrt-v4 §12.2.1).
-    Spot { position: Vec3, axis: Vec3, intensity: Rgb, cos_total: f32, cos_falloff_start: f32 },
-    Environment { radiance: Rgb },
+    Spot {
+        position: Vec3,
+        axis: Vec3,
+        intensity: Rgb,
+        cos_total: f32,
+        cos_falloff_start: f32,
+    },
+    Environment {
+        radiance: Rgb,
+    },
 }
 
 /// A direction toward a light from a reference point, with what arrives along it.
@@ -43,29 +58,51 @@ impl Light {
     /// Radiance leaving an area light's surface point with geometric normal `n` in direction `w`.
     #[inline]
     pub fn area_le(radiance: Rgb, two_sided: bool, n: Vec3, w: Vec3) -> Rgb {
-        if two_sided || n.dot(w) > 0.0 { radiance } else { Rgb::BLACK }
+        if two_sided || n.dot(w) > 0.0 {
+            radiance
+        } else {
+            Rgb::BLACK
+        }
     }
 
     /// Total emitted power Φ, used for power-proportional light selection. `scene_radius` bounds the
     /// scene for infinite lights (pbrt-v4 §12.5.1: Φ = π r² · 4π L for a constant environment).
     pub fn power(&self, shapes: &[Shape], scene_radius: f32) -> Rgb {
         match *self {
-            Light::Area { shape, radiance, two_sided } => {
+            Light::Area {
+                shape,
+                radiance,
+                two_sided,
+            } => {
                 radiance * (PI * shapes[shape as usize].area() * if two_sided { 2.0 } else { 1.0 })
             }
             Light::Point { intensity, .. } => intensity * (4.0 * PI),
-            Light::Spot { intensity, cos_total, cos_falloff_start, .. } => {
+            Light::Spot {
+                intensity,
+                cos_total,
+                cos_falloff_start,
+                ..
+            } => {
                 // ∫ smoothstep falloff dω = 2π [(1 − cos_start) + (cos_start − cos_total)/2]
-                intensity * (2.0 * PI * ((1.0 - cos_falloff_start) + (cos_falloff_start - cos_total) / 2.0))
+                intensity
+                    * (2.0
+                        * PI
+                        * ((1.0 - cos_falloff_start) + (cos_falloff_start - cos_total) / 2.0))
             }
-            Light::Environment { radiance } => radiance * (PI * scene_radius * scene_radius * 4.0 * PI),
+            Light::Environment { radiance } => {
+                radiance * (PI * scene_radius * scene_radius * 4.0 * PI)
+            }
         }
     }
 
     /// Samples incident illumination at `p` (pbrt-v4's `SampleLi`).
     pub fn sample_li(&self, shapes: &[Shape], p: Vec3, u: Vec2) -> Option<LightSample> {
         match *self {
-            Light::Area { shape, radiance, two_sided } => {
+            Light::Area {
+                shape,
+                radiance,
+                two_sided,
+            } => {
                 let s = shapes[shape as usize].sample_solid_angle(p, u)?;
                 let d = s.p - p;
                 let dist2 = d.length_squared();
@@ -74,18 +111,45 @@ impl Light {
                 }
                 let wi = d / dist2.sqrt();
                 let li = Light::area_le(radiance, two_sided, s.n, -wi);
-                Some(LightSample { wi, li, pdf_w: s.pdf, p: s.p, p_error: s.p_error, n: s.n, delta: false, infinite: false })
+                Some(LightSample {
+                    wi,
+                    li,
+                    pdf_w: s.pdf,
+                    p: s.p,
+                    p_error: s.p_error,
+                    n: s.n,
+                    delta: false,
+                    infinite: false,
+                })
             }
-            Light::Point { position, intensity } => {
+            Light::Point {
+                position,
+                intensity,
+            } => {
                 let d = position - p;
                 let dist2 = d.length_squared();
                 if !(dist2 > 0.0) {
                     return None;
                 }
                 let wi = d / dist2.sqrt();
-                Some(LightSample { wi, li: intensity / dist2, pdf_w: 1.0, p: position, p_error: Vec3::ZERO, n: -wi, delta: true, infinite: false })
+                Some(LightSample {
+                    wi,
+                    li: intensity / dist2,
+                    pdf_w: 1.0,
+                    p: position,
+                    p_error: Vec3::ZERO,
+                    n: -wi,
+                    delta: true,
+                    infinite: false,
+                })
             }
-            Light::Spot { position, axis, intensity, cos_total, cos_falloff_start } => {
+            Light::Spot {
+                position,
+                axis,
+                intensity,
+                cos_total,
+                cos_falloff_start,
+            } => {
                 let d = position - p;
                 let dist2 = d.length_squared();
                 if !(dist2 > 0.0) {
@@ -106,7 +170,16 @@ impl Light {
             }
             Light::Environment { radiance } => {
                 let wi = square_to_uniform_sphere(u);
-                Some(LightSample { wi, li: radiance, pdf_w: square_to_uniform_sphere_pdf(wi), p: p + wi, p_error: Vec3::ZERO, n: -wi, delta: false, infinite: true })
+                Some(LightSample {
+                    wi,
+                    li: radiance,
+                    pdf_w: square_to_uniform_sphere_pdf(wi),
+                    p: p + wi,
+                    p_error: Vec3::ZERO,
+                    n: -wi,
+                    delta: false,
+                    infinite: true,
+                })
             }
         }
     }
@@ -143,7 +216,13 @@ mod tests {
     #[test]
     fn spot_power_matches_integrated_falloff() {
         let (ct, cs) = (30f32.to_radians().cos(), 20f32.to_radians().cos());
-        let l = Light::Spot { position: Vec3::ZERO, axis: Vec3::Z, intensity: Rgb::WHITE, cos_total: ct, cos_falloff_start: cs };
+        let l = Light::Spot {
+            position: Vec3::ZERO,
+            axis: Vec3::Z,
+            intensity: Rgb::WHITE,
+            cos_total: ct,
+            cos_falloff_start: cs,
+        };
         // Midpoint rule over cos θ: ∫ falloff dω = 2π ∫ falloff(cos θ) d cos θ.
         let n = 200_000;
         let integral: f64 = (0..n)
@@ -155,6 +234,9 @@ mod tests {
             * 2.0
             * std::f64::consts::PI;
         let p = l.power(&[], 1.0).r as f64;
-        assert!((p - integral).abs() < 1e-4 * p, "power {p} vs integral {integral}");
+        assert!(
+            (p - integral).abs() < 1e-4 * p,
+            "power {p} vs integral {integral}"
+        );
     }
 }

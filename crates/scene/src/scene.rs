@@ -24,18 +24,44 @@ pub struct Scene {
 }
 
 impl Scene {
-    pub(crate) fn new(camera: Camera, accel: Accel, materials: Vec<Bsdf>, material_names: Vec<String>, lights: Vec<Light>) -> Scene {
+    pub(crate) fn new(
+        camera: Camera,
+        accel: Accel,
+        materials: Vec<Bsdf>,
+        material_names: Vec<String>,
+        lights: Vec<Light>,
+    ) -> Scene {
         let (lo, hi) = accel.bounds();
         let (center, radius) = if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() {
-            ((lo + hi) * 0.5, ((hi - lo) * 0.5).length().max(f32::MIN_POSITIVE))
+            (
+                (lo + hi) * 0.5,
+                ((hi - lo) * 0.5).length().max(f32::MIN_POSITIVE),
+            )
         } else {
             (camera.eye, 1.0)
         };
-        let powers: Vec<f32> = lights.iter().map(|l| l.power(accel.shapes(), radius).average()).collect();
+        let powers: Vec<f32> = lights
+            .iter()
+            .map(|l| l.power(accel.shapes(), radius).average())
+            .collect();
         let light_selection = Distribution1D::new(&powers);
-        let environment =
-            lights.iter().enumerate().filter(|(_, l)| matches!(l, Light::Environment { .. })).map(|(i, _)| i as u32).collect();
-        Scene { camera, accel, materials, material_names, lights, light_selection, environment, center, radius }
+        let environment = lights
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| matches!(l, Light::Environment { .. }))
+            .map(|(i, _)| i as u32)
+            .collect();
+        Scene {
+            camera,
+            accel,
+            materials,
+            material_names,
+            lights,
+            light_selection,
+            environment,
+            center,
+            radius,
+        }
     }
 
     #[inline]
@@ -65,16 +91,20 @@ impl Scene {
     /// Probability that [`Scene::sample_light`] picks light `i`.
     #[inline]
     pub fn light_pmf(&self, i: u32) -> f32 {
-        self.light_selection.as_ref().map_or(0.0, |d| d.pmf(i as usize))
+        self.light_selection
+            .as_ref()
+            .map_or(0.0, |d| d.pmf(i as usize))
     }
 
     /// Radiance arriving from infinity along a ray that hits nothing (environments are constant).
     #[inline]
     pub fn environment_le(&self) -> Rgb {
-        self.environment.iter().fold(Rgb::BLACK, |acc, &i| match self.lights[i as usize] {
-            Light::Environment { radiance } => acc + radiance,
-            _ => acc,
-        })
+        self.environment
+            .iter()
+            .fold(Rgb::BLACK, |acc, &i| match self.lights[i as usize] {
+                Light::Environment { radiance } => acc + radiance,
+                _ => acc,
+            })
     }
 
     /// Environment lights, for MIS weights of escaped rays.
