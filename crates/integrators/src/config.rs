@@ -1,0 +1,184 @@
+//! Integrator settings as RON, shared by `lightlab render --integrator '...'` and experiment files.
+
+use crate::Integrator;
+use crate::path::PathTracer;
+use serde::{Deserialize, Serialize};
+
+/// Which integrator to run and with what settings, e.g. `Path(max_bounces: 8, strategy: Mis)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum IntegratorConfig {
+    /// Unidirectional path tracing from the camera (Kajiya 1986) with next-event estimation.
+    Path(PathConfig),
+}
+
+/// Settings of the path tracer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    try_from = "PathConfigRaw",
+    into = "PathConfigRaw"
+)]
+pub struct PathConfig {
+    pub max_bounces: Option<u32>,
+    pub min_bounces: u32,
+    pub russian_roulette: Option<u32>,
+    pub strategy: Strategy,
+    pub shadows: bool,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Path")]
+pub struct PathConfigRaw {
+    /// Largest number of scattering vertices on a path; `None` for no limit (Russian roulette ends
+    /// paths). Default `None`.
+    #[serde(default)]
+    pub max_bounces: Option<u32>,
+    /// Smallest number of scattering vertices a contribution must have: `min_bounces: k,
+    /// max_bounces: k` isolates the k-th term of the Neumann series. Default 0.
+    #[serde(default)]
+    pub min_bounces: u32,
+    /// Russian roulette from this many scattering vertices on (survival probability
+    /// min(1, max channel of the throughput)); `None` turns it off. Default `Some(3)`.
+    #[serde(default = "default_rr")]
+    pub russian_roulette: Option<u32>,
+    /// How directions are chosen at each vertex. Default `Mis`.
+    #[serde(default)]
+    pub strategy: Strategy,
+    /// Test visibility for next-event estimation. `false` computes direct illumination without
+    /// shadows (and then counts emitters only through light sampling; see `Strategy`). Default true.
+    #[serde(default = "yes")]
+    pub shadows: bool,
+}
+
+fn default_rr() -> Option<u32> {
+    Some(3)
+}
+fn yes() -> bool {
+    true
+}
+
+/// Sampling strategy of the path tracer, for comparing blind and informed Monte Carlo.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Strategy {
+    /// Light sampling and BSDF sampling combined by the power heuristic (Veach 1997, §9.2).
+    #[default]
+    Mis,
+    /// BSDF sampling only: emitters count when a sampled ray hits them.
+    BsdfOnly,
+    /// Light sampling only: emitters hit by BSDF-sampled rays count only after the camera or a
+    /// specular vertex, where light sampling is impossible.
+    LightOnly,
+    /// Blind Monte Carlo: uniform directions on the hemisphere of the outgoing direction (the whole
+    /// sphere for transmissive rough surfaces), no light sampling; specular vertices are sampled
+    /// by their BSDF.
+    Uniform,
+}
+
+impl TryFrom<PathConfigRaw> for PathConfig {
+    type Error = String;
+    fn try_from(r: PathConfigRaw) -> Result<Self, String> {
+        if r.max_bounces.is_none() && r.russian_roulette.is_none() {
+            return Err("unbounded paths (max_bounces: None) need Russian roulette: set max_bounces or russian_roulette".into());
+        }
+        if let Some(max) = r.max_bounces
+            && r.min_bounces > max
+        {
+            return Err(format!(
+                "min_bounces ({}) exceeds max_bounces ({max})",
+                r.min_bounces
+            ));
+        }
+        Ok(PathConfig {
+            max_bounces: r.max_bounces,
+            min_bounces: r.min_bounces,
+            russian_roulette: r.russian_roulette,
+            strategy: r.strategy,
+            shadows: r.shadows,
+        })
+    }
+}
+
+impl From<PathConfig> for PathConfigRaw {
+    fn from(c: PathConfig) -> Self {
+        PathConfigRaw {
+            max_bounces: c.max_bounces,
+            min_bounces: c.min_bounces,
+            russian_roulette: c.russian_roulette,
+            strategy: c.strategy,
+            shadows: c.shadows,
+        }
+    }
+}
+
+impl IntegratorConfig {
+    /// Parses RON such as `Path(max_bounces: 8)`. Errors carry line:column.
+    pub fn from_ron(text: &str) -> Result<IntegratorConfig, String> {
+        ron_options()
+            .from_str(text)
+            .map_err(|e| format!("{}:{}: {}", e.span.start.line, e.span.start.col, e.code))
+    }
+
+    /// The settings written back as RON, every field explicit.
+    pub fn to_ron(&self) -> String {
+        ron_options()
+            .to_string_pretty(
+                self,
+                ron::ser::PrettyConfig::new()
+                    .struct_names(true)
+                    .compact_structs(true),
+            )
+            .expect("integrator settings always serialise")
+    }
+
+    pub fn build(&self) -> Box<dyn Integrator> {
+        match self {
+            IntegratorConfig::Path(c) => Box::new(PathTracer::new(c.clone())),
+        }
+    }
+}
+
+/// RON options used for every Lightlab document: `Some(..)` may be omitted, and a variant holding a
+/// settings struct is written `Path(max_bounces: 8)` rather than `Path((max_bounces: 8))`.
+pub fn ron_options() -> ron::Options {
+    use ron::extensions::Extensions;
+    ron::Options::default()
+        .with_default_extension(Extensions::IMPLICIT_SOME | Extensions::UNWRAP_VARIANT_NEWTYPES)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_defaults_and_round_trips() {
+        let c = IntegratorConfig::from_ron("Path(max_bounces: 8)").unwrap();
+        let IntegratorConfig::Path(p) = &c;
+        assert_eq!(p.max_bounces, Some(8));
+        assert_eq!(p.russian_roulette, Some(3));
+        assert_eq!(p.strategy, Strategy::Mis);
+        assert!(p.shadows);
+        assert_eq!(IntegratorConfig::from_ron(&c.to_ron()).unwrap(), c);
+        let d = IntegratorConfig::from_ron("Path()").unwrap();
+        let IntegratorConfig::Path(d) = d;
+        assert_eq!(d.max_bounces, None);
+    }
+
+    #[test]
+    fn rejects_bad_settings_with_position() {
+        let e = IntegratorConfig::from_ron("Path(max_bounce: 8)").unwrap_err();
+        assert!(e.starts_with("1:") && e.contains("max_bounce"), "{e}");
+        let e = IntegratorConfig::from_ron("Path(max_bounces: None, russian_roulette: None)")
+            .unwrap_err();
+        assert!(e.contains("Russian roulette"), "{e}");
+        let e = IntegratorConfig::from_ron("Path(max_bounces: 2, min_bounces: 3)").unwrap_err();
+        assert!(e.contains("min_bounces"), "{e}");
+        let e = IntegratorConfig::from_ron("Path(max_bounces: -1)").unwrap_err();
+        assert!(e.contains("1:"), "{e}");
+        assert!(
+            IntegratorConfig::from_ron("Pth()")
+                .unwrap_err()
+                .contains("Path")
+        );
+    }
+}

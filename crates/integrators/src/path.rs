@@ -1,0 +1,316 @@
+//! Unidirectional path tracing (Kajiya 1986) with next-event estimation, combined with BSDF sampling
+//! by multiple importance sampling (Veach 1997, §9.2; pbrt-v4 §13.4).
+//!
+//! The estimator of a pixel is a sum over path lengths k (scattering vertices) of
+//! L_e · Π f·|cos|/p along a path of k vertices, where each length-k term is estimated twice — by
+//! sampling the last direction from the BSDF and by sampling a point on a light — and the two are
+//! weighted by the power heuristic. `min_bounces`/`max_bounces` keep only terms with k in that range.
+//!
+//! Sample dimensions per pixel sample (the layout stratified samplers rely on): 0–1 pixel position,
+//! 2–3 lens, then per scattering vertex 7 values: light choice (1), point on the light (2), BSDF lobe
+//! (1), BSDF direction (2), Russian roulette (1) — consumed whether or not they are used.
+
+use crate::config::{PathConfig, Strategy};
+use crate::film::PixelSums;
+use crate::render::{Counters, render_tiles};
+use crate::{Budget, Integrator, RenderOutput, RenderStats};
+use glam::{Vec2, Vec3};
+use lightlab_core::{INV_2PI, INV_4PI, Progress, Rgb, TransportMode};
+use lightlab_geometry::{NO_LIGHT, spawn_ray, spawn_ray_to, spawn_ray_to_point};
+use lightlab_materials::{Bsdf, SurfaceBsdf};
+use lightlab_samplers::mis::power_heuristic;
+use lightlab_samplers::warp::{square_to_uniform_hemisphere, square_to_uniform_sphere};
+use lightlab_samplers::{Independent, Sampler};
+use lightlab_scene::{Light, Scene};
+
+/// Technique numbers for the non-finite counters.
+const EMISSION: usize = 0;
+const NEXT_EVENT: usize = 1;
+
+pub struct PathTracer {
+    config: PathConfig,
+}
+
+impl PathTracer {
+    pub fn new(config: PathConfig) -> Self {
+        PathTracer { config }
+    }
+
+    /// Whether next-event estimation is done at non-specular vertices.
+    fn samples_lights(&self) -> bool {
+        matches!(self.config.strategy, Strategy::Mis | Strategy::LightOnly)
+    }
+
+    /// Weight of emission found by a BSDF-sampled ray (or the camera ray) against light sampling of the
+    /// same path. `prev_delta`: the previous vertex was the camera or specular, where lights cannot be
+    /// sampled.
+    #[inline]
+    fn emission_weight(
+        &self,
+        prev_delta: bool,
+        bsdf_pdf: f32,
+        light_pdf: impl FnOnce() -> f32,
+    ) -> f32 {
+        if prev_delta {
+            return 1.0;
+        }
+        match (self.config.strategy, self.config.shadows) {
+            (Strategy::BsdfOnly | Strategy::Uniform, _) => 1.0,
+            (Strategy::LightOnly, _) | (Strategy::Mis, false) => 0.0,
+            (Strategy::Mis, true) => power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf()),
+        }
+    }
+
+    /// One camera path through raster position `film`; returns its radiance estimate.
+    fn li<S: Sampler>(
+        &self,
+        scene: &Scene,
+        film: Vec2,
+        sampler: &mut S,
+        counters: &mut Counters,
+    ) -> Rgb {
+        let cfg = &self.config;
+        let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX);
+        let u_lens = sampler.next_2d();
+        let mut ray = scene.camera.generate_ray(film, u_lens);
+        let mut l = Rgb::BLACK;
+        let mut beta = Rgb::WHITE;
+        // Product of η² over refractions so far, which Russian roulette divides out (pbrt-v4 §13.4.4).
+        let mut eta_scale = 1.0f32;
+        let mut depth = 0u32; // scattering vertices so far
+        let mut prev_delta = true;
+        let mut prev_p = ray.o;
+        let mut prev_bsdf_pdf = 0.0f32;
+        let shapes = scene.shapes();
+        loop {
+            counters.rays += 1;
+            let Some(hit) = scene.intersect(&ray) else {
+                let le = scene.environment_le();
+                if depth >= cfg.min_bounces && !le.is_black() {
+                    let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
+                        scene
+                            .environment_lights()
+                            .iter()
+                            .map(|&i| scene.light_pmf(i) * INV_4PI)
+                            .sum()
+                    });
+                    add(&mut l, beta * le * w, EMISSION, counters);
+                }
+                break;
+            };
+            let wo = -ray.d.normalize();
+            if hit.light != NO_LIGHT
+                && depth >= cfg.min_bounces
+                && let Light::Area {
+                    radiance,
+                    two_sided,
+                    ..
+                } = scene.lights[hit.light as usize]
+            {
+                let le = Light::area_le(radiance, two_sided, hit.ng, wo);
+                if !le.is_black() {
+                    let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
+                        scene.light_pmf(hit.light)
+                            * shapes[hit.shape as usize].pdf_solid_angle(prev_p, hit.p, hit.ng)
+                    });
+                    add(&mut l, beta * le * w, EMISSION, counters);
+                }
+            }
+            if depth >= max_bounces {
+                break;
+            }
+            let bsdf = scene.materials[hit.material as usize];
+            let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
+            let delta = bsdf.is_delta();
+
+            // Next-event estimation: a path of depth + 1 scattering vertices ending on a light.
+            let (u_light, u_light_point) = (sampler.next_1d(), sampler.next_2d());
+            if self.samples_lights()
+                && !delta
+                && depth + 1 >= cfg.min_bounces
+                && let Some((li_index, pmf)) = scene.sample_light(u_light)
+            {
+                let light = &scene.lights[li_index as usize];
+                if let Some(ls) = light.sample_li(shapes, hit.p, u_light_point) {
+                    let e = sb.eval(wo, ls.wi, TransportMode::Radiance);
+                    if !ls.li.is_black() && !e.f.is_black() {
+                        counters.rays += cfg.shadows as u64;
+                        if !cfg.shadows || !self.shadowed(scene, &hit, &ls) {
+                            let light_pdf = pmf * ls.pdf_w;
+                            let w = if ls.delta
+                                || cfg.strategy == Strategy::LightOnly
+                                || !cfg.shadows
+                            {
+                                1.0
+                            } else {
+                                power_heuristic(1.0, light_pdf, 1.0, e.pdf_fwd)
+                            };
+                            let cos = ls.wi.dot(sb.frame.n).abs();
+                            add(
+                                &mut l,
+                                beta * e.f * ls.li * (cos * w / light_pdf),
+                                NEXT_EVENT,
+                                counters,
+                            );
+                        }
+                    }
+                }
+            }
+
+            // Continue the path.
+            let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
+            let step = if cfg.strategy == Strategy::Uniform && !delta {
+                uniform_direction(&sb, wo, u_dir)
+            } else {
+                sb.sample(wo, u_lobe, u_dir, TransportMode::Radiance)
+                    .map(|s| Step {
+                        wi: s.wi,
+                        weight: s.weight,
+                        pdf: s.pdf,
+                        delta: s.delta,
+                        eta: if s.transmission { s.eta } else { 1.0 },
+                    })
+            };
+            let Some(step) = step else { break };
+            if step.weight.is_black() {
+                break;
+            }
+            beta *= step.weight;
+            eta_scale *= step.eta * step.eta;
+            prev_delta = step.delta;
+            prev_bsdf_pdf = step.pdf;
+            prev_p = hit.p;
+            depth += 1;
+            if let Some(rr) = cfg.russian_roulette
+                && depth >= rr
+            {
+                let survive = (beta.max_component() * eta_scale).min(1.0);
+                if !(u_rr < survive) {
+                    break;
+                }
+                beta /= survive;
+            }
+            ray = spawn_ray(hit.p, hit.p_error, hit.ng, step.wi);
+        }
+        l
+    }
+
+    fn shadowed(
+        &self,
+        scene: &Scene,
+        hit: &lightlab_geometry::Hit,
+        ls: &lightlab_scene::LightSample,
+    ) -> bool {
+        let ray = if ls.infinite {
+            let mut r = spawn_ray(hit.p, hit.p_error, hit.ng, ls.wi);
+            r.t_max = f32::INFINITY;
+            r
+        } else if ls.delta {
+            spawn_ray_to_point(hit.p, hit.p_error, hit.ng, ls.p)
+        } else {
+            spawn_ray_to(hit.p, hit.p_error, hit.ng, ls.p, ls.p_error, ls.n)
+        };
+        scene.occluded(&ray)
+    }
+}
+
+/// A sampled continuation of the path.
+struct Step {
+    wi: Vec3,
+    weight: Rgb,
+    pdf: f32,
+    delta: bool,
+    /// Relative IOR crossed (1 for reflection).
+    eta: f32,
+}
+
+/// Blind sampling: a uniform direction on the hemisphere of `wo` (the whole sphere where the surface
+/// transmits), weighted by f·|cos|/p.
+fn uniform_direction(sb: &SurfaceBsdf, wo: Vec3, u: Vec2) -> Option<Step> {
+    let (local, pdf) = if matches!(sb.bsdf, Bsdf::RoughDielectric { .. }) {
+        (square_to_uniform_sphere(u), INV_4PI)
+    } else {
+        let mut d = square_to_uniform_hemisphere(u);
+        if sb.frame.n.dot(wo) < 0.0 {
+            d.z = -d.z;
+        }
+        (d, INV_2PI)
+    };
+    let wi = sb.frame.to_world(local);
+    let f = sb.eval(wo, wi, TransportMode::Radiance).f;
+    let transmits = wi.dot(sb.ng) * wo.dot(sb.ng) < 0.0;
+    let eta = match sb.bsdf {
+        Bsdf::RoughDielectric { eta, .. } if transmits => {
+            if wo.dot(sb.ng) > 0.0 {
+                eta
+            } else {
+                1.0 / eta
+            }
+        }
+        _ => 1.0,
+    };
+    Some(Step {
+        wi,
+        weight: f * (local.z.abs() / pdf),
+        pdf,
+        delta: false,
+        eta,
+    })
+}
+
+/// Adds a contribution unless it is NaN or infinite, which is counted instead (design.md).
+#[inline]
+fn add(l: &mut Rgb, c: Rgb, technique: usize, counters: &mut Counters) {
+    if c.is_finite() {
+        *l += c;
+    } else {
+        counters.non_finite[technique] += 1;
+    }
+}
+
+impl Integrator for PathTracer {
+    fn render(
+        &self,
+        scene: &Scene,
+        budget: &Budget,
+        seed: u64,
+        progress: &dyn Progress,
+    ) -> RenderOutput {
+        let cam = &scene.camera;
+        let (width, height) = (cam.width, cam.height);
+        let (film, counters, wall) = render_tiles(
+            width,
+            height,
+            progress,
+            |x, y, sums: &mut PixelSums, counters| {
+                let pixel = (y as u64) * width as u64 + x as u64;
+                let mut sampler = Independent::new();
+                for s in 0..budget.spp {
+                    sampler.start_pixel_sample(seed, pixel, s as u64);
+                    let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                    let l = self.li(scene, film, &mut sampler, counters);
+                    sums.add([l.r as f64, l.g as f64, l.b as f64]);
+                }
+            },
+        );
+        let samples = width as u64 * height as u64 * budget.spp as u64;
+        let stats = RenderStats {
+            integrator: "Path".into(),
+            width,
+            height,
+            spp: budget.spp,
+            seed,
+            threads: rayon::current_num_threads(),
+            wall_seconds: wall,
+            samples,
+            rays: counters.rays,
+            rays_per_second: counters.rays as f64 / wall.max(1e-9),
+            samples_per_second: samples as f64 / wall.max(1e-9),
+            non_finite: vec![
+                ("emission".into(), counters.non_finite[EMISSION]),
+                ("next_event".into(), counters.non_finite[NEXT_EVENT]),
+            ],
+        };
+        RenderOutput { film, stats }
+    }
+}

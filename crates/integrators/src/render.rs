@@ -1,0 +1,116 @@
+//! What every integrator takes (a budget) and returns (a film with statistics), and the tile loop that
+//! runs a per-pixel estimator over the image on the rayon pool.
+
+use crate::film::{Film, PixelSums};
+use lightlab_core::Progress;
+use serde::Serialize;
+use std::time::Instant;
+
+/// How much work a render may do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Budget {
+    /// Samples per pixel (camera paths per pixel), ≥ 1.
+    pub spp: u32,
+}
+
+/// Counters gathered while rendering.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct RenderStats {
+    pub integrator: String,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub seed: u64,
+    pub threads: usize,
+    pub wall_seconds: f64,
+    /// Camera paths traced.
+    pub samples: u64,
+    /// Rays cast: closest-hit and shadow rays together.
+    pub rays: u64,
+    pub rays_per_second: f64,
+    pub samples_per_second: f64,
+    /// Contributions that were NaN or infinite and were left out of the film, by technique.
+    pub non_finite: Vec<(String, u64)>,
+}
+
+impl RenderStats {
+    pub fn non_finite_total(&self) -> u64 {
+        self.non_finite.iter().map(|(_, n)| n).sum()
+    }
+}
+
+pub struct RenderOutput {
+    pub film: Film,
+    pub stats: RenderStats,
+}
+
+/// Counters kept per tile and summed; `non_finite` is indexed by the integrator's technique number.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Counters {
+    pub rays: u64,
+    pub non_finite: [u64; 2],
+}
+
+impl Counters {
+    fn merge(&mut self, o: &Counters) {
+        self.rays += o.rays;
+        for (a, b) in self.non_finite.iter_mut().zip(o.non_finite) {
+            *a += b;
+        }
+    }
+}
+
+/// Tile edge in pixels: small enough to balance two cores on small images, large enough to amortise
+/// scheduling.
+const TILE: u32 = 16;
+
+/// Runs `pixel(x, y, sums, counters)` for every pixel, tiles in parallel, and returns the film, the
+/// summed counters and the wall time. Each pixel's samples are summed in sample order by one thread,
+/// so the film is bit-identical whatever the thread count.
+pub(crate) fn render_tiles<F>(
+    width: u32,
+    height: u32,
+    progress: &dyn Progress,
+    pixel: F,
+) -> (Film, Counters, f64)
+where
+    F: Fn(u32, u32, &mut PixelSums, &mut Counters) + Sync,
+{
+    use rayon::prelude::*;
+    let start = Instant::now();
+    let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
+        .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    progress.start(width as u64 * height as u64);
+    let done: Vec<(Vec<PixelSums>, Counters)> = tiles
+        .par_iter()
+        .map(|&(x0, y0)| {
+            let (w, h) = (TILE.min(width - x0), TILE.min(height - y0));
+            let mut counters = Counters::default();
+            let mut sums = vec![PixelSums::default(); (w * h) as usize];
+            for y in 0..h {
+                for x in 0..w {
+                    pixel(
+                        x0 + x,
+                        y0 + y,
+                        &mut sums[(y * w + x) as usize],
+                        &mut counters,
+                    );
+                }
+            }
+            progress.advance((w * h) as u64);
+            (sums, counters)
+        })
+        .collect();
+    let mut film = Film::new(width, height);
+    let mut counters = Counters::default();
+    for (&(x0, y0), (sums, c)) in tiles.iter().zip(&done) {
+        let w = TILE.min(width - x0);
+        for (k, s) in sums.iter().enumerate() {
+            let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
+            film.pixels[(y * width + x) as usize] = *s;
+        }
+        counters.merge(c);
+    }
+    (film, counters, start.elapsed().as_secs_f64())
+}
