@@ -1,1 +1,65 @@
-fn main() {}
+//! `lightlab`: render scenes with a chosen light-transport integrator and run experiments.
+
+mod progress;
+mod render;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Lightlab: a light-transport research testbed. Renders RON scenes with path tracing and other
+/// global-illumination methods, and writes OpenEXR images with their variance, PNG previews and
+/// statistics.
+#[derive(Parser)]
+#[command(name = "lightlab", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Render(render::RenderArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn cli_is_well_formed() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn render_arguments_parse_and_reject_bad_values() {
+        let ok = Cli::try_parse_from([
+            "lightlab",
+            "render",
+            "s.ron",
+            "--spp",
+            "4",
+            "--integrator",
+            "Path(max_bounces: 2)",
+        ]);
+        assert!(ok.is_ok());
+        for bad in [["--spp", "-1"], ["--spp", "0"], ["--threads", "0"]] {
+            let r = Cli::try_parse_from(["lightlab", "render", "s.ron", bad[0], bad[1]]);
+            assert!(r.is_err(), "{bad:?} accepted");
+        }
+    }
+}

@@ -1,0 +1,105 @@
+//! `lightlab render`: one image of one scene with one integrator.
+
+use crate::progress::Bar;
+use clap::Args;
+use lightlab_experiments::atomic::write_atomic;
+use lightlab_experiments::image_io::{film_layers, write_exr, write_png};
+use lightlab_integrators::{Budget, IntegratorConfig};
+use std::path::PathBuf;
+
+/// Render a scene and write OUT.exr (layers `radiance` and `variance`, linear float), OUT.png
+/// (tone-mapped sRGB preview) and OUT.json (statistics: time, samples, rays, non-finite samples).
+#[derive(Args)]
+pub struct RenderArgs {
+    /// Scene file (RON), see scenes/README.md.
+    scene: PathBuf,
+    /// Integrator and its settings as RON, e.g. 'Path(max_bounces: 8, strategy: Mis)'.
+    #[arg(long, short, default_value = "Path()")]
+    integrator: String,
+    /// Samples per pixel (≥ 1).
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    spp: u32,
+    /// Seed of the random numbers: the same seed gives the same image, bit for bit, on any number of
+    /// threads.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (≥ 1). Default: all cores.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    threads: Option<u32>,
+    /// Output EXR path; the PNG and JSON are written beside it with the same stem.
+    #[arg(long, short, default_value = "out.exr")]
+    output: PathBuf,
+    /// Exposure of the PNG preview in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+}
+
+pub fn run(args: RenderArgs) -> Result<(), String> {
+    let config = IntegratorConfig::from_ron(&args.integrator)
+        .map_err(|e| format!("--integrator '{}': {e}", args.integrator))?;
+    let scene = lightlab_scene::load_scene(&args.scene).map_err(|e| e.to_string())?;
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = args.threads {
+        pool = pool.num_threads(t as usize);
+    }
+    let pool = pool
+        .build()
+        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    let integrator = config.build();
+    let bar = Bar::new("render");
+    let out =
+        pool.install(|| integrator.render(&scene, &Budget { spp: args.spp }, args.seed, &bar));
+    bar.0.finish_and_clear();
+
+    let (w, h) = (out.film.width, out.film.height);
+    let layers = film_layers(&out.film);
+    write_exr(&args.output, w, h, &layers).map_err(|e| e.to_string())?;
+    let png = args.output.with_extension("png");
+    write_png(&png, w, h, &layers[0].pixels, args.exposure).map_err(|e| e.to_string())?;
+    let json_path = args.output.with_extension("json");
+    let json = serde_json::json!({
+        "scene": args.scene.display().to_string(),
+        "integrator": config.to_ron(),
+        "lightlab_version": env!("CARGO_PKG_VERSION"),
+        "stats": out.stats,
+    });
+    write_atomic(
+        &json_path,
+        serde_json::to_string_pretty(&json)
+            .expect("stats serialise")
+            .as_bytes(),
+    )
+    .map_err(|e| format!("{}: {e}", json_path.display()))?;
+
+    let s = &out.stats;
+    let (mean, se) = out.film.average();
+    println!(
+        "{}: {}×{} at {} spp in {:.2} s on {} threads — {:.2} M rays/s, {:.2} M samples/s",
+        s.integrator,
+        w,
+        h,
+        s.spp,
+        s.wall_seconds,
+        s.threads,
+        s.rays_per_second * 1e-6,
+        s.samples_per_second * 1e-6
+    );
+    println!(
+        "image mean radiance (R, G, B) = ({:.6}, {:.6}, {:.6}) ± ({:.2e}, {:.2e}, {:.2e}) (1 std. error)",
+        mean[0], mean[1], mean[2], se[0], se[1], se[2]
+    );
+    if s.non_finite_total() > 0 {
+        eprintln!(
+            "warning: {} non-finite contributions were left out of the image: {:?}",
+            s.non_finite_total(),
+            s.non_finite
+        );
+    }
+    println!(
+        "wrote {}, {}, {}",
+        args.output.display(),
+        png.display(),
+        json_path.display()
+    );
+    Ok(())
+}

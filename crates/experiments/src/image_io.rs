@@ -1,0 +1,220 @@
+//! Images as researchers use them: linear float OpenEXR with named layers (one EXR part per layer,
+//! channels R, G, B), and a tone-mapped sRGB PNG preview.
+
+use crate::atomic::write_atomic_with;
+use lightlab_integrators::Film;
+use std::path::Path;
+
+/// A named RGB image, row-major.
+pub struct RgbLayer {
+    pub name: String,
+    pub pixels: Vec<[f32; 3]>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    #[error("{path}: {message}")]
+    Exr { path: String, message: String },
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+}
+
+/// The layers every render writes: `radiance` (pixel means) and `variance` (estimated variance of each
+/// pixel mean, s²/n, per channel).
+pub fn film_layers(film: &Film) -> Vec<RgbLayer> {
+    let f = |v: [f64; 3]| v.map(|x| x as f32);
+    vec![
+        RgbLayer {
+            name: "radiance".into(),
+            pixels: film.pixels.iter().map(|p| f(p.mean())).collect(),
+        },
+        RgbLayer {
+            name: "variance".into(),
+            pixels: film
+                .pixels
+                .iter()
+                .map(|p| f(p.variance_of_mean()))
+                .collect(),
+        },
+    ]
+}
+
+/// Writes the layers as a multi-part OpenEXR file, atomically, ZIP-compressed 32-bit float.
+pub fn write_exr(
+    path: &Path,
+    width: u32,
+    height: u32,
+    layers: &[RgbLayer],
+) -> Result<(), ImageError> {
+    use exr::prelude::*;
+    let size = Vec2(width as usize, height as usize);
+    let parts: Vec<Layer<AnyChannels<FlatSamples>>> = layers
+        .iter()
+        .map(|l| {
+            let channel = |name: &str, c: usize| {
+                AnyChannel::new(
+                    name,
+                    FlatSamples::F32(l.pixels.iter().map(|p| p[c]).collect()),
+                )
+            };
+            Layer::new(
+                size,
+                LayerAttributes::named(l.name.as_str()),
+                Encoding::SMALL_LOSSLESS,
+                AnyChannels::sort(smallvec::smallvec![
+                    channel("R", 0),
+                    channel("G", 1),
+                    channel("B", 2)
+                ]),
+            )
+        })
+        .collect();
+    let image = Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions(size)),
+        parts,
+    );
+    write_atomic_with(path, |tmp| {
+        image.write().to_file(tmp).map_err(std::io::Error::other)
+    })
+    .map_err(|e| ImageError::Exr {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })
+}
+
+/// Reads every layer of an OpenEXR file that has R, G and B channels: (width, height, layers).
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<RgbLayer>), ImageError> {
+    use exr::prelude::*;
+    let err = |message: String| ImageError::Exr {
+        path: path.display().to_string(),
+        message,
+    };
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| err(e.to_string()))?;
+    let mut size = None;
+    let mut out = Vec::new();
+    for layer in &image.layer_data {
+        let find = |n: &str| {
+            layer
+                .channel_data
+                .list
+                .iter()
+                .find(|c| c.name.eq_case_insensitive(n))
+        };
+        let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) else {
+            continue;
+        };
+        let (r, g, b) = (
+            r.sample_data.values_as_f32().collect::<Vec<_>>(),
+            g.sample_data.values_as_f32().collect::<Vec<_>>(),
+            b.sample_data.values_as_f32().collect::<Vec<_>>(),
+        );
+        let name = layer
+            .attributes
+            .layer_name
+            .as_ref()
+            .map_or_else(String::new, |n| n.to_string());
+        size = Some((layer.size.0 as u32, layer.size.1 as u32));
+        out.push(RgbLayer {
+            name,
+            pixels: (0..r.len()).map(|i| [r[i], g[i], b[i]]).collect(),
+        });
+    }
+    let (w, h) = size.ok_or_else(|| err("no layer with R, G and B channels".into()))?;
+    Ok((w, h, out))
+}
+
+/// sRGB opto-electronic transfer function (IEC 61966-2-1).
+fn srgb_encode(x: f32) -> f32 {
+    if x <= 0.0031308 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Writes an 8-bit sRGB preview: linear values scaled by 2^`exposure`, clipped to [0, 1], encoded
+/// with the sRGB curve. Non-finite values show as magenta so they cannot hide.
+pub fn write_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+    exposure: f32,
+) -> Result<(), ImageError> {
+    let scale = exposure.exp2();
+    let mut data = Vec::with_capacity(pixels.len() * 3);
+    for p in pixels {
+        if p.iter().all(|x| x.is_finite()) {
+            data.extend(p.map(|x| (srgb_encode((x * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8));
+        } else {
+            data.extend([255, 0, 255]);
+        }
+    }
+    let io = |source: std::io::Error| ImageError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    write_atomic_with(path, |tmp| {
+        let file = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+        let mut enc = png::Encoder::new(file, width, height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut w = enc.write_header().map_err(std::io::Error::other)?;
+        w.write_image_data(&data).map_err(std::io::Error::other)?;
+        w.finish().map_err(std::io::Error::other)
+    })
+    .map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exr_layers_round_trip_bit_exact() {
+        let dir = std::env::temp_dir().join(format!("lightlab-exr-{}", std::process::id()));
+        let path = dir.join("t.exr");
+        let (w, h) = (5u32, 3u32);
+        let a: Vec<[f32; 3]> = (0..15)
+            .map(|i| [i as f32 * 0.1, 1e-20 * i as f32, 3e4 + i as f32])
+            .collect();
+        let b: Vec<[f32; 3]> = (0..15).map(|i| [0.5, i as f32, -1.0]).collect();
+        write_exr(
+            &path,
+            w,
+            h,
+            &[
+                RgbLayer {
+                    name: "radiance".into(),
+                    pixels: a.clone(),
+                },
+                RgbLayer {
+                    name: "variance".into(),
+                    pixels: b.clone(),
+                },
+            ],
+        )
+        .unwrap();
+        let (rw, rh, layers) = read_exr(&path).unwrap();
+        assert_eq!((rw, rh), (w, h));
+        assert_eq!(layers.len(), 2);
+        assert_eq!(layers[0].name, "radiance");
+        assert_eq!(layers[0].pixels, a);
+        assert_eq!(layers[1].name, "variance");
+        assert_eq!(layers[1].pixels, b);
+        write_png(&dir.join("t.png"), w, h, &a, 0.0).unwrap();
+        assert!(dir.join("t.png").metadata().unwrap().len() > 0);
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+}
