@@ -1,1 +1,114 @@
-//! End-to-end tests live in tests/tests/.
+//! Shared helpers of the end-to-end tests in `tests/tests/`: render scene text with an integrator
+//! given as RON, and generate variants of the bundled scenes.
+
+use lightlab_core::NoProgress;
+use lightlab_integrators::{Budget, IntegratorConfig, RenderOutput};
+use lightlab_scene::{Scene, parse_scene};
+use std::path::Path;
+
+/// Parses scene text (errors name `inline.ron`).
+pub fn scene(text: &str) -> Scene {
+    parse_scene(text, Path::new("inline.ron"))
+        .unwrap_or_else(|e| panic!("test scene does not load: {e}"))
+}
+
+/// Renders `scene` with the integrator `config` (RON) at `spp` samples per pixel.
+pub fn render(scene: &Scene, config: &str, spp: u32, seed: u64) -> RenderOutput {
+    let cfg = IntegratorConfig::from_ron(config)
+        .unwrap_or_else(|e| panic!("bad integrator {config}: {e}"));
+    cfg.build()
+        .render(scene, &Budget { spp }, seed, &NoProgress)
+}
+
+/// The furnace: camera inside a closed sphere of albedo `rho` emitting `le` from its inside.
+pub fn furnace(rho: f32, le: f32, radius: f32, res: (u32, u32)) -> String {
+    format!(
+        "Scene(camera: Camera(eye: (0, 0, 0), target: (0, 0, -1), fov: 60, resolution: ({}, {})),
+               materials: {{ \"wall\": Diffuse(albedo: ({rho}, {rho}, {rho})) }},
+               shapes: [ Shape(geometry: Sphere(center: (0, 0, 0), radius: {radius}), material: \"wall\",
+                               emission: (radiance: ({le}, {le}, {le}), two_sided: true)) ])",
+        res.0, res.1
+    )
+}
+
+/// The furnace as a triangle mesh: inside any closed enclosure of uniform albedo and emission the
+/// radiance is the same everywhere, so a box gives the same answer as the sphere.
+pub fn furnace_box(rho: f32, le: f32, res: (u32, u32)) -> String {
+    format!(
+        "Scene(camera: Camera(eye: (0.1, -0.2, 0.3), target: (0, 0, -1), fov: 70, resolution: ({}, {})),
+               materials: {{ \"wall\": Diffuse(albedo: ({rho}, {rho}, {rho})) }},
+               shapes: [ Shape(geometry: Cuboid(half_extents: (1, 1.5, 2)), material: \"wall\",
+                               emission: (radiance: ({le}, {le}, {le}), two_sided: true)) ])",
+        res.0, res.1
+    )
+}
+
+/// The Cornell box of `scenes/cornell-box.ron`, uniformly scaled by `s` about the origin and then
+/// moved by `t`, at resolution `res`. The light's radiance is unchanged, so the image is the same.
+pub fn cornell(s: f32, t: [f32; 3], res: (u32, u32)) -> String {
+    let p =
+        |x: f32, y: f32, z: f32| format!("({}, {}, {})", x * s + t[0], y * s + t[1], z * s + t[2]);
+    let v = |x: f32, y: f32, z: f32| format!("({}, {}, {})", x * s, y * s, z * s);
+    let quad = |c: String, a: String, b: String, m: &str| {
+        format!("Shape(geometry: Quad(corner: {c}, edge1: {a}, edge2: {b}), material: \"{m}\"),")
+    };
+    let cuboid = |h: String, deg: f32, c: String| {
+        format!(
+            "Shape(geometry: Cuboid(half_extents: {h}), material: \"white\",
+                   transform: (scale: ({s}, {s}, {s}), rotate: [(axis: (0, 1, 0), degrees: {deg})], translate: {c})),"
+        )
+    };
+    format!(
+        "Scene(
+            camera: Camera(eye: {eye}, target: {target}, fov: 39.3077, resolution: ({w}, {h})),
+            materials: {{
+                \"white\": Diffuse(albedo: (0.725, 0.71, 0.68)),
+                \"red\": Diffuse(albedo: (0.63, 0.065, 0.05)),
+                \"green\": Diffuse(albedo: (0.14, 0.45, 0.091)),
+                \"black\": Diffuse(albedo: (0, 0, 0)),
+            }},
+            shapes: [ {floor} {ceiling} {back} {left} {right} {tall} {short}
+                Shape(geometry: Quad(corner: {lc}, edge1: {la}, edge2: {lb}), material: \"black\",
+                      emission: (radiance: (17, 12, 4))),
+            ])",
+        eye = p(0.0, 0.0, 3.9),
+        target = p(0.0, 0.0, 0.0),
+        w = res.0,
+        h = res.1,
+        floor = quad(
+            p(-1.0, -1.0, -1.0),
+            v(0.0, 0.0, 2.0),
+            v(2.0, 0.0, 0.0),
+            "white"
+        ),
+        ceiling = quad(
+            p(-1.0, 1.0, -1.0),
+            v(2.0, 0.0, 0.0),
+            v(0.0, 0.0, 2.0),
+            "white"
+        ),
+        back = quad(
+            p(-1.0, -1.0, -1.0),
+            v(2.0, 0.0, 0.0),
+            v(0.0, 2.0, 0.0),
+            "white"
+        ),
+        left = quad(
+            p(-1.0, -1.0, -1.0),
+            v(0.0, 2.0, 0.0),
+            v(0.0, 0.0, 2.0),
+            "red"
+        ),
+        right = quad(
+            p(1.0, -1.0, -1.0),
+            v(0.0, 0.0, 2.0),
+            v(0.0, 2.0, 0.0),
+            "green"
+        ),
+        tall = cuboid("(0.3, 0.61, 0.3)".into(), 18.25, p(-0.33, -0.4, -0.28)),
+        short = cuboid("(0.3, 0.3, 0.3)".into(), -17.0, p(0.335, -0.7, 0.38)),
+        lc = p(-0.23, 0.99, -0.18),
+        la = v(0.46, 0.0, 0.0),
+        lb = v(0.0, 0.0, 0.38),
+    )
+}
