@@ -8,11 +8,11 @@
 use lightlab_core::{Ray, Vec2, Vec3};
 use lightlab_geometry::{Accel, Geometry, NO_LIGHT, Shape, TriangleMesh};
 use lightlab_samplers::warp::square_to_uniform_sphere;
+use lightlab_testkit::timing::timed;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
 use std::f32::consts::PI;
-use std::time::Instant;
 
 const INCOHERENT: usize = 4 << 20;
 const SHADOW: usize = 4 << 20;
@@ -152,23 +152,6 @@ fn uv_sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> Shape {
         }
     }
     mesh(p, i)
-}
-
-/// Process CPU time (user + system) in seconds, from /proc/self/stat fields 14 and 15.
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").expect("/proc/self/stat");
-    let after_name = &stat[stat.rfind(')').expect("stat format") + 2..];
-    let fields: Vec<&str> = after_name.split_whitespace().collect();
-    // `fields[0]` is field 3 (state), so fields 14 and 15 are at 11 and 12.
-    let ticks: u64 = fields[11].parse::<u64>().unwrap() + fields[12].parse::<u64>().unwrap();
-    ticks as f64 / 100.0
-}
-
-/// Wall and CPU seconds of `f`.
-fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, f64) {
-    let (wall, cpu) = (Instant::now(), cpu_seconds());
-    let out = f();
-    (out, wall.elapsed().as_secs_f64(), cpu_seconds() - cpu)
 }
 
 fn random_point(rng: &mut Pcg64) -> Vec3 {

@@ -1,6 +1,7 @@
 //! Statistical test support for Lightlab (a dev-dependency only): a chi-square goodness-of-fit
 //! harness for sampling routines ([`chi2`]), z-tests for Monte Carlo estimates and whole images,
-//! approximate-equality asserts and a least-squares line fit for convergence rates ([`stats`]).
+//! approximate-equality asserts and a least-squares line fit for convergence rates ([`stats`]), and
+//! wall/CPU timing for the benchmarks ([`timing`]).
 //!
 //! A new sampling routine's test is a few lines:
 //!
@@ -26,6 +27,7 @@
 
 pub mod chi2;
 pub mod stats;
+pub mod timing;
 
 pub use chi2::{Chi2Result, Chi2Test, Domain, DomainPoint, chi2_discrete};
 pub use stats::{

@@ -1,0 +1,72 @@
+//! Wall and CPU time for the benchmarks (BENCHMARKS.md reports both: per-CPU-second rates compare
+//! single- and multi-threaded runs fairly, wall-clock rates show the speed-up).
+
+use std::time::Instant;
+
+/// Process CPU time (user + system, all threads) in seconds, from /proc/self/stat fields 14 and 15
+/// (clock ticks of 1/100 s, so time runs of at least a few seconds).
+pub fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").expect("/proc/self/stat is readable");
+    let after_name = &stat[stat.rfind(')').expect("stat format") + 2..];
+    let fields: Vec<&str> = after_name.split_whitespace().collect();
+    // `fields[0]` is field 3 (state), so fields 14 and 15 are at 11 and 12.
+    let ticks: u64 =
+        fields[11].parse::<u64>().expect("utime") + fields[12].parse::<u64>().expect("stime");
+    ticks as f64 / 100.0
+}
+
+/// The result of `f` with the wall and CPU seconds it took.
+pub fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, f64) {
+    let (wall, cpu) = (Instant::now(), cpu_seconds());
+    let out = f();
+    (out, wall.elapsed().as_secs_f64(), cpu_seconds() - cpu)
+}
+
+/// Peak resident memory of the process in bytes (VmHWM of /proc/self/status).
+pub fn peak_rss_bytes() -> u64 {
+    let status =
+        std::fs::read_to_string("/proc/self/status").expect("/proc/self/status is readable");
+    let line = status
+        .lines()
+        .find(|l| l.starts_with("VmHWM:"))
+        .expect("VmHWM in /proc/self/status");
+    let kib: u64 = line
+        .split_whitespace()
+        .nth(1)
+        .and_then(|v| v.parse().ok())
+        .expect("VmHWM value in kB");
+    kib * 1024
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cpu_time_grows_with_work() {
+        let (x, wall, cpu) = timed(|| {
+            let mut x = 0u64;
+            let start = Instant::now();
+            while start.elapsed().as_secs_f64() < 0.3 {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1);
+            }
+            x
+        });
+        assert!(x != 0 && wall >= 0.3);
+        // Busy for 0.3 s on one thread: at least 0.2 s of CPU even on a loaded machine's tick count.
+        assert!(
+            cpu > 0.2 && cpu < wall + 0.1,
+            "cpu {cpu} s for {wall} s of busy wall time"
+        );
+    }
+
+    #[test]
+    fn peak_memory_covers_a_touched_allocation() {
+        let v = vec![1u8; 64 << 20];
+        assert!(
+            peak_rss_bytes() >= 64 << 20,
+            "{}",
+            v.iter().map(|&b| b as u64).sum::<u64>()
+        );
+    }
+}
