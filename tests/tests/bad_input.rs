@@ -101,6 +101,11 @@ fn ior_not_positive() {
         3,
         &["ior", "> 0"],
     );
+    assert_error(
+        "materials: { \"g\": RoughDielectric(roughness: Isotropic(0.1), ior: 1) },",
+        3,
+        &["ior", "≠ 1"],
+    );
 }
 
 #[test]

@@ -210,6 +210,14 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
             MaterialRaw::RoughDielectric { roughness, ior } => {
                 check_roughness(roughness)?;
                 positive("RoughDielectric ior", ior)?;
+                if ior == 1.0 {
+                    return Err(
+                        "RoughDielectric ior must differ from 1: an index-matched rough interface \
+                                has no microfacet refraction (GGX transmission degenerates); \
+                                use ior > 0 and ≠ 1"
+                            .into(),
+                    );
+                }
             }
             MaterialRaw::Phong { kd, ks, exponent } => {
                 unit_rgb("Phong kd", kd)?;
