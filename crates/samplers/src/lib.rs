@@ -1,19 +1,31 @@
-//! Sample generation for Monte Carlo integration: the [`Sampler`] trait, deterministic seeding,
-//! warps from the unit square to the domains integrators need, piecewise-constant distributions and
-//! multiple-importance-sampling heuristics.
+//! Sample generation for Monte Carlo integration: the [`Sampler`] trait and its implementations
+//! ([`Independent`], [`Stratified`], [`LatinHypercube`], [`Halton`], [`Sobol`], chosen in settings by
+//! [`SamplerConfig`]), deterministic seeding, warps from the unit square to the domains integrators
+//! need, piecewise-constant distributions and multiple-importance-sampling heuristics.
 //!
 //! Determinism (design.md): every value depends only on (seed, pixel, sample index, dimension) — or
 //! (seed, photon index) — never on thread or tile order.
 
+mod config;
 mod distribution;
+pub mod halton;
 mod independent;
+pub mod latin;
+pub mod lowdiscrepancy;
 pub mod mis;
 mod seeding;
+pub mod sobol;
+pub mod stratified;
 pub mod warp;
 
+pub use config::{SamplerConfig, SamplerVisitor};
 pub use distribution::Distribution1D;
+pub use halton::Halton;
 pub use independent::Independent;
-pub use seeding::{hash_u64s, pixel_stream, splitmix64};
+pub use latin::LatinHypercube;
+pub use seeding::{hash_step, hash_u64s, pixel_stream, splitmix64};
+pub use sobol::Sobol;
+pub use stratified::Stratified;
 
 use glam::Vec2;
 
@@ -21,7 +33,10 @@ use glam::Vec2;
 ///
 /// Dimension layout of a camera path: pixel position (2D), lens (2D), then per bounce a fixed number
 /// of dimensions in the order the integrator documents. Independent samplers ignore the layout; the
-/// stratified and low-discrepancy samplers rely on it.
+/// stratified and low-discrepancy samplers rely on it: `next_1d` consumes one dimension number and
+/// `next_2d` two, a 2D pair being stratified jointly (a grid, a net) where the sampler can. Values
+/// of sample i of a pixel are stratified across i = 0 … spp−1, so call `start_pixel_sample` with
+/// every index of that range.
 pub trait Sampler {
     /// Starts sample `sample_index` of `pixel` (an index into the film, row-major) for the run `seed`.
     fn start_pixel_sample(&mut self, seed: u64, pixel: u64, sample_index: u64);

@@ -16,7 +16,14 @@ pub fn splitmix64(mut z: u64) -> u64 {
 #[inline]
 pub fn hash_u64s(keys: &[u64]) -> u64 {
     keys.iter()
-        .fold(0x6A09_E667_F3BC_C909, |h, &k| splitmix64(h ^ splitmix64(k)))
+        .fold(0x6A09_E667_F3BC_C909, |h, &k| hash_step(h, k))
+}
+
+/// One link of [`hash_u64s`]'s chain: `hash_step(hash_u64s(&[a, b]), c) == hash_u64s(&[a, b, c])`,
+/// so a prefix such as (seed, pixel) is hashed once and extended per dimension.
+#[inline]
+pub fn hash_step(h: u64, key: u64) -> u64 {
+    splitmix64(h ^ splitmix64(key))
 }
 
 /// The PCG stream of one (seed, pixel, sample) triple. Distinct triples get unrelated states; we do not
