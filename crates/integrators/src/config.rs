@@ -2,6 +2,7 @@
 
 use crate::Integrator;
 use crate::path::PathTracer;
+use lightlab_samplers::SamplerConfig;
 use serde::{Deserialize, Serialize};
 
 /// Which integrator to run and with what settings, e.g. `Path(max_bounces: 8, strategy: Mis)`.
@@ -25,6 +26,7 @@ pub struct PathConfig {
     pub russian_roulette: Option<u32>,
     pub strategy: Strategy,
     pub shadows: bool,
+    pub sampler: SamplerConfig,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -49,6 +51,10 @@ pub struct PathConfigRaw {
     /// shadows (and then counts emitters only through light sampling; see `Strategy`). Default true.
     #[serde(default = "yes")]
     pub shadows: bool,
+    /// Where the sample values come from: `Independent`, `Stratified`, `LatinHypercube`, `Halton`
+    /// or `Sobol` (see `lightlab_samplers::SamplerConfig`). Default `Independent`.
+    #[serde(default)]
+    pub sampler: SamplerConfig,
 }
 
 fn default_rr() -> Option<u32> {
@@ -95,6 +101,7 @@ impl TryFrom<PathConfigRaw> for PathConfig {
             russian_roulette: r.russian_roulette,
             strategy: r.strategy,
             shadows: r.shadows,
+            sampler: r.sampler,
         })
     }
 }
@@ -107,6 +114,7 @@ impl From<PathConfig> for PathConfigRaw {
             russian_roulette: c.russian_roulette,
             strategy: c.strategy,
             shadows: c.shadows,
+            sampler: c.sampler,
         }
     }
 }
