@@ -1,6 +1,7 @@
 //! Integrator settings as RON, shared by `lightlab render --integrator '...'` and experiment files.
 
 use crate::Integrator;
+use crate::light::LightTracer;
 use crate::path::PathTracer;
 use lightlab_samplers::SamplerConfig;
 use serde::{Deserialize, Serialize};
@@ -11,6 +12,79 @@ use serde::{Deserialize, Serialize};
 pub enum IntegratorConfig {
     /// Unidirectional path tracing from the camera (Kajiya 1986) with next-event estimation.
     Path(PathConfig),
+    /// Light tracing (particle tracing; Arvo & Kirk 1990, Dutré et al. 1993): paths from the lights,
+    /// every non-specular vertex connected to the camera.
+    Light(LightConfig),
+}
+
+/// Settings of the light tracer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    try_from = "LightConfigRaw",
+    into = "LightConfigRaw"
+)]
+pub struct LightConfig {
+    pub max_bounces: Option<u32>,
+    pub min_bounces: u32,
+    pub russian_roulette: Option<u32>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Light")]
+pub struct LightConfigRaw {
+    /// Largest number of scattering vertices (the vertex connected to the camera included); `None`
+    /// for no limit. Default `None`.
+    #[serde(default)]
+    pub max_bounces: Option<u32>,
+    /// Smallest number of scattering vertices a contribution must have. Default 0.
+    #[serde(default)]
+    pub min_bounces: u32,
+    /// Russian roulette from this many scattering vertices on; `None` turns it off. Default `Some(3)`.
+    #[serde(default = "default_rr")]
+    pub russian_roulette: Option<u32>,
+}
+
+impl TryFrom<LightConfigRaw> for LightConfig {
+    type Error = String;
+    fn try_from(r: LightConfigRaw) -> Result<Self, String> {
+        check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
+        Ok(LightConfig {
+            max_bounces: r.max_bounces,
+            min_bounces: r.min_bounces,
+            russian_roulette: r.russian_roulette,
+        })
+    }
+}
+
+impl From<LightConfig> for LightConfigRaw {
+    fn from(c: LightConfig) -> Self {
+        LightConfigRaw {
+            max_bounces: c.max_bounces,
+            min_bounces: c.min_bounces,
+            russian_roulette: c.russian_roulette,
+        }
+    }
+}
+
+/// The bounce settings every integrator shares: unbounded paths need Russian roulette, and
+/// `min_bounces ≤ max_bounces`.
+fn check_bounces(
+    max_bounces: Option<u32>,
+    min_bounces: u32,
+    russian_roulette: Option<u32>,
+) -> Result<(), String> {
+    if max_bounces.is_none() && russian_roulette.is_none() {
+        return Err("unbounded paths (max_bounces: None) need Russian roulette: set max_bounces or russian_roulette".into());
+    }
+    if let Some(max) = max_bounces
+        && min_bounces > max
+    {
+        return Err(format!(
+            "min_bounces ({min_bounces}) exceeds max_bounces ({max})"
+        ));
+    }
+    Ok(())
 }
 
 /// Settings of the path tracer.
@@ -84,17 +158,7 @@ pub enum Strategy {
 impl TryFrom<PathConfigRaw> for PathConfig {
     type Error = String;
     fn try_from(r: PathConfigRaw) -> Result<Self, String> {
-        if r.max_bounces.is_none() && r.russian_roulette.is_none() {
-            return Err("unbounded paths (max_bounces: None) need Russian roulette: set max_bounces or russian_roulette".into());
-        }
-        if let Some(max) = r.max_bounces
-            && r.min_bounces > max
-        {
-            return Err(format!(
-                "min_bounces ({}) exceeds max_bounces ({max})",
-                r.min_bounces
-            ));
-        }
+        check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
         Ok(PathConfig {
             max_bounces: r.max_bounces,
             min_bounces: r.min_bounces,
@@ -142,6 +206,7 @@ impl IntegratorConfig {
     pub fn build(&self) -> Box<dyn Integrator> {
         match self {
             IntegratorConfig::Path(c) => Box::new(PathTracer::new(c.clone())),
+            IntegratorConfig::Light(c) => Box::new(LightTracer::new(c.clone())),
         }
     }
 }
@@ -161,15 +226,28 @@ mod tests {
     #[test]
     fn parses_defaults_and_round_trips() {
         let c = IntegratorConfig::from_ron("Path(max_bounces: 8)").unwrap();
-        let IntegratorConfig::Path(p) = &c;
+        let IntegratorConfig::Path(p) = &c else {
+            panic!("{c:?}")
+        };
         assert_eq!(p.max_bounces, Some(8));
         assert_eq!(p.russian_roulette, Some(3));
         assert_eq!(p.strategy, Strategy::Mis);
         assert!(p.shadows);
         assert_eq!(IntegratorConfig::from_ron(&c.to_ron()).unwrap(), c);
         let d = IntegratorConfig::from_ron("Path()").unwrap();
-        let IntegratorConfig::Path(d) = d;
+        let IntegratorConfig::Path(d) = d else {
+            panic!("{d:?}")
+        };
         assert_eq!(d.max_bounces, None);
+        assert_eq!(d.sampler, lightlab_samplers::SamplerConfig::Independent);
+        let l = IntegratorConfig::from_ron("Light(max_bounces: 2)").unwrap();
+        assert_eq!(
+            l.to_ron(),
+            "Light(max_bounces: 2, min_bounces: 0, russian_roulette: 3)"
+        );
+        assert_eq!(IntegratorConfig::from_ron(&l.to_ron()).unwrap(), l);
+        let s = IntegratorConfig::from_ron("Path(sampler: Sobol)").unwrap();
+        assert_eq!(IntegratorConfig::from_ron(&s.to_ron()).unwrap(), s);
     }
 
     #[test]
@@ -187,6 +265,21 @@ mod tests {
             IntegratorConfig::from_ron("Pth()")
                 .unwrap_err()
                 .contains("Path")
+        );
+        assert!(
+            IntegratorConfig::from_ron("Light(strategy: Mis)")
+                .unwrap_err()
+                .contains("strategy")
+        );
+        assert!(
+            IntegratorConfig::from_ron("Light(min_bounces: 3, max_bounces: 1)")
+                .unwrap_err()
+                .contains("min_bounces")
+        );
+        assert!(
+            IntegratorConfig::from_ron("Path(sampler: Sobl)")
+                .unwrap_err()
+                .contains("Sobol")
         );
     }
 }

@@ -25,6 +25,21 @@ impl PixelSums {
         }
     }
 
+    /// Statistics of `count` samples given their sums Σx and Σx² (for estimators such as light
+    /// tracing whose samples are mostly zero and are summed sparsely).
+    pub fn from_sums(sum: [f64; 3], sum_sq: [f64; 3], count: u64) -> PixelSums {
+        if count == 0 {
+            return PixelSums::default();
+        }
+        let n = count as f64;
+        let mean = sum.map(|s| s / n);
+        let mut m2 = [0.0; 3];
+        for c in 0..3 {
+            m2[c] = (sum_sq[c] - n * mean[c] * mean[c]).max(0.0);
+        }
+        PixelSums { mean, m2, count }
+    }
+
     /// Combines the statistics of two disjoint sets of samples (Chan et al. 1983, eq. 2.1).
     pub fn merge(&mut self, other: &PixelSums) {
         if other.count == 0 {

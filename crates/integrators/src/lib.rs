@@ -8,10 +8,11 @@
 
 mod config;
 mod film;
+pub mod light;
 pub mod path;
 mod render;
 
-pub use config::{IntegratorConfig, Strategy};
+pub use config::{IntegratorConfig, LightConfig, Strategy};
 pub use film::{Film, PixelSums};
 pub use render::{Budget, RenderOutput, RenderStats};
 

@@ -269,8 +269,23 @@ fn add(l: &mut Rgb, c: Rgb, technique: usize, counters: &mut Counters) {
 }
 
 impl Integrator for PathTracer {
-    fn render(&self, scene: &Scene, budget: &Budget, seed: u64, progress: &dyn Progress) -> RenderOutput {
-        self.config.sampler.dispatch(budget.spp, RenderWith { tracer: self, scene, budget, seed, progress })
+    fn render(
+        &self,
+        scene: &Scene,
+        budget: &Budget,
+        seed: u64,
+        progress: &dyn Progress,
+    ) -> RenderOutput {
+        self.config.sampler.dispatch(
+            budget.spp,
+            RenderWith {
+                tracer: self,
+                scene,
+                budget,
+                seed,
+                progress,
+            },
+        )
     }
 }
 
@@ -287,19 +302,30 @@ impl SamplerVisitor for RenderWith<'_> {
     type Output = RenderOutput;
 
     fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
-        let RenderWith { tracer, scene, budget, seed, progress } = self;
+        let RenderWith {
+            tracer,
+            scene,
+            budget,
+            seed,
+            progress,
+        } = self;
         let cam = &scene.camera;
         let (width, height) = (cam.width, cam.height);
-        let (film, counters, wall) = render_tiles(width, height, progress, |x, y, sums: &mut PixelSums, counters| {
-            let pixel = (y as u64) * width as u64 + x as u64;
-            let mut sampler = prototype.clone();
-            for s in 0..budget.spp {
-                sampler.start_pixel_sample(seed, pixel, s as u64);
-                let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                let l = tracer.li(scene, film, &mut sampler, counters);
-                sums.add([l.r as f64, l.g as f64, l.b as f64]);
-            }
-        });
+        let (film, counters, wall) = render_tiles(
+            width,
+            height,
+            progress,
+            |x, y, sums: &mut PixelSums, counters| {
+                let pixel = (y as u64) * width as u64 + x as u64;
+                let mut sampler = prototype.clone();
+                for s in 0..budget.spp {
+                    sampler.start_pixel_sample(seed, pixel, s as u64);
+                    let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                    let l = tracer.li(scene, film, &mut sampler, counters);
+                    sums.add([l.r as f64, l.g as f64, l.b as f64]);
+                }
+            },
+        );
         let samples = width as u64 * height as u64 * budget.spp as u64;
         let stats = RenderStats {
             integrator: "Path".into(),

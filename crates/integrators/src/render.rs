@@ -52,7 +52,7 @@ pub(crate) struct Counters {
 }
 
 impl Counters {
-    fn merge(&mut self, o: &Counters) {
+    pub(crate) fn merge(&mut self, o: &Counters) {
         self.rays += o.rays;
         for (a, b) in self.non_finite.iter_mut().zip(o.non_finite) {
             *a += b;

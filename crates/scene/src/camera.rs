@@ -6,6 +6,21 @@ use glam::{Vec2, Vec3};
 use lightlab_core::Ray;
 use lightlab_samplers::warp::square_to_concentric_disk;
 
+/// A connection from a scene point to the camera (see [`Camera::sample_wi`]).
+#[derive(Clone, Copy, Debug)]
+pub struct CameraSample {
+    /// Point on the lens (the eye for a pinhole).
+    pub p_lens: Vec3,
+    /// Unit direction from the scene point toward `p_lens`.
+    pub wi: Vec3,
+    /// Importance of the ray from `p_lens` toward the scene point.
+    pub we: f32,
+    /// Density of `wi` in solid angle at the scene point.
+    pub pdf_w: f32,
+    /// Raster position (pixels) the connection contributes to.
+    pub raster: Vec2,
+}
+
 #[derive(Clone, Debug)]
 pub struct Camera {
     pub eye: Vec3,
@@ -44,6 +59,22 @@ impl Camera {
         }
     }
 
+    /// The same camera with another image size; the field of view along the smaller axis is kept.
+    pub fn with_resolution(&self, width: u32, height: u32) -> Camera {
+        let t = self.half_size.min_element();
+        let half_size = if width >= height {
+            Vec2::new(t * width as f32 / height as f32, t)
+        } else {
+            Vec2::new(t, t * height as f32 / width as f32)
+        };
+        Camera {
+            width,
+            height,
+            half_size,
+            ..self.clone()
+        }
+    }
+
     pub fn pixel_count(&self) -> usize {
         self.width as usize * self.height as usize
     }
@@ -71,6 +102,59 @@ impl Camera {
                 Ray::new(o, (focus - o).normalize())
             }
         }
+    }
+
+    /// Connects the scene point `p` to the camera for light tracing (pbrt-v4 §16.1.1, `SampleWi`):
+    /// a point on the lens (the eye for a pinhole; `u_lens` on the aperture disk for a thin lens),
+    /// the raster position the connection lands on, the importance `We` of that ray and the density
+    /// `pdf_w` of the direction from `p` (lens area measure converted to solid angle at `p`).
+    /// `We / pdf_w · |cos at p|` times what leaves `p` toward the lens is the contribution to the
+    /// pixel estimate summed over the whole film; `None` outside the image or behind the camera.
+    ///
+    /// We(ω) = 1 / (A · A_lens · cos⁴ θ) with A the image-plane area at distance 1 and A_lens the
+    /// aperture area (1 for a pinhole), so that ∫ We cos θ dω over the film is 1 / A_lens.
+    pub fn sample_wi(&self, p: Vec3, u_lens: Vec2) -> Option<CameraSample> {
+        let film_area = 4.0 * self.half_size.x * self.half_size.y;
+        let (p_lens, lens_area, focus) = match self.lens {
+            Lens::Pinhole => (self.eye, 1.0, None),
+            Lens::ThinLens {
+                aperture_radius,
+                focus_distance,
+            } => {
+                let l = aperture_radius * square_to_concentric_disk(u_lens);
+                let area = std::f32::consts::PI * aperture_radius * aperture_radius;
+                (
+                    self.eye + self.right * l.x + self.up * l.y,
+                    area,
+                    Some(focus_distance),
+                )
+            }
+        };
+        let d = p - p_lens;
+        let dist_sq = d.length_squared();
+        if !(dist_sq > 0.0) || !dist_sq.is_finite() {
+            return None;
+        }
+        let w = d / dist_sq.sqrt();
+        let cos = w.dot(self.forward);
+        if !(cos > 0.0) {
+            return None;
+        }
+        // A thin lens images the plane of focus: the raster position is that of the point where the
+        // connection crosses it, seen through the lens centre.
+        let toward = match focus {
+            None => d,
+            Some(f) => p_lens + w * (f / cos) - self.eye,
+        };
+        let raster = self.raster_of_direction(toward)?;
+        let we = 1.0 / (film_area * lens_area * cos * cos * cos * cos);
+        Some(CameraSample {
+            p_lens,
+            wi: -w,
+            we,
+            pdf_w: dist_sq / (cos * lens_area),
+            raster,
+        })
     }
 
     /// The raster position at which a pinhole ray with direction `d` leaves the eye, if inside the image.

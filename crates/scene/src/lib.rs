@@ -13,8 +13,8 @@ mod light;
 mod load;
 mod scene;
 
-pub use camera::Camera;
+pub use camera::{Camera, CameraSample};
 pub use error::SceneError;
-pub use light::{Light, LightSample, spot_falloff};
+pub use light::{Light, LightEmission, LightSample, spot_falloff};
 pub use load::{load_scene, parse_scene};
 pub use scene::Scene;

@@ -2,9 +2,15 @@
 //! are delta or infinite emitters. Light selection is proportional to emitted power (see `Scene`).
 
 use glam::{Vec2, Vec3};
-use lightlab_core::{INV_4PI, PI, Rgb};
+use lightlab_core::{Frame, INV_4PI, INV_PI, PI, Rgb};
+
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 use lightlab_geometry::Shape;
-use lightlab_samplers::warp::{square_to_uniform_sphere, square_to_uniform_sphere_pdf};
+use lightlab_samplers::warp::{
+    square_to_concentric_disk, square_to_cosine_hemisphere, square_to_uniform_cone,
+    square_to_uniform_cone_pdf, square_to_uniform_sphere, square_to_uniform_sphere_pdf,
+};
 
 #[derive(Clone, Copy, Debug)]
 pub enum Light {
@@ -31,6 +37,25 @@ pub enum Light {
     },
 }
 
+/// A ray leaving a light, for light tracing and photon emission (pbrt-v4 §12, `SampleLe`).
+#[derive(Clone, Copy, Debug)]
+pub struct LightEmission {
+    /// Origin on the light, its error bound and the light's normal there (the direction for delta
+    /// and infinite lights).
+    pub p: Vec3,
+    pub p_error: Vec3,
+    pub n: Vec3,
+    /// Unit direction of emission.
+    pub dir: Vec3,
+    /// Radiance (area, environment) or intensity (point, spot) along `dir`.
+    pub le: Rgb,
+    /// Area density of `p` (1 for delta positions), and solid-angle density of `dir`.
+    pub pdf_pos: f32,
+    pub pdf_dir: f32,
+    /// The position is a delta (point and spot lights).
+    pub delta_pos: bool,
+}
+
 /// A direction toward a light from a reference point, with what arrives along it.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
@@ -51,6 +76,113 @@ pub struct LightSample {
 }
 
 impl Light {
+    /// A ray leaving the light: position ∝ area (uniform on the disk of radius `scene_radius`
+    /// facing the direction for the environment), direction cosine-weighted on the emitting side(s)
+    /// of area lights, uniform for point lights, uniform in the cone for spot lights and uniform on
+    /// the sphere for the environment. The throughput of the ray is
+    /// `le · |cos(n, dir)| / (pdf_pos · pdf_dir)` (cos = 1 for delta and infinite lights).
+    pub fn sample_le(
+        &self,
+        shapes: &[Shape],
+        scene_center: Vec3,
+        scene_radius: f32,
+        u_pos: Vec2,
+        u_dir: Vec2,
+    ) -> Option<LightEmission> {
+        match *self {
+            Light::Area {
+                shape,
+                radiance,
+                two_sided,
+            } => {
+                let s = shapes[shape as usize].sample_area(u_pos);
+                if !(s.pdf > 0.0) {
+                    return None;
+                }
+                // Two-sided: the back side with probability ½, reusing u_dir.x.
+                let (u, side, side_pdf) = if two_sided {
+                    if u_dir.x < 0.5 {
+                        (Vec2::new(u_dir.x * 2.0, u_dir.y), 1.0, 0.5)
+                    } else {
+                        (Vec2::new((u_dir.x - 0.5) * 2.0, u_dir.y), -1.0, 0.5)
+                    }
+                } else {
+                    (u_dir, 1.0, 1.0)
+                };
+                let local = square_to_cosine_hemisphere(Vec2::new(u.x.min(ONE_MINUS_EPSILON), u.y));
+                let dir = Frame::from_z(s.n * side).to_world(local);
+                let pdf_dir = local.z * INV_PI * side_pdf;
+                (pdf_dir > 0.0).then_some(LightEmission {
+                    p: s.p,
+                    p_error: s.p_error,
+                    n: s.n,
+                    dir,
+                    le: radiance,
+                    pdf_pos: s.pdf,
+                    pdf_dir,
+                    delta_pos: false,
+                })
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let dir = square_to_uniform_sphere(u_dir);
+                Some(LightEmission {
+                    p: position,
+                    p_error: Vec3::ZERO,
+                    n: dir,
+                    dir,
+                    le: intensity,
+                    pdf_pos: 1.0,
+                    pdf_dir: INV_4PI,
+                    delta_pos: true,
+                })
+            }
+            Light::Spot {
+                position,
+                axis,
+                intensity,
+                cos_total,
+                cos_falloff_start,
+            } => {
+                let local = square_to_uniform_cone(u_dir, cos_total);
+                let dir = Frame::from_z(axis).to_world(local);
+                let falloff = spot_falloff(local.z, cos_total, cos_falloff_start);
+                let pdf_dir = square_to_uniform_cone_pdf(local, cos_total);
+                Some(LightEmission {
+                    p: position,
+                    p_error: Vec3::ZERO,
+                    n: dir,
+                    dir,
+                    le: intensity * falloff,
+                    pdf_pos: 1.0,
+                    pdf_dir,
+                    delta_pos: true,
+                })
+            }
+            Light::Environment { radiance } => {
+                // Light arrives from −dir: start on a disk of the scene's bounding sphere's radius,
+                // outside it, perpendicular to dir.
+                let dir = -square_to_uniform_sphere(u_dir);
+                let d = square_to_concentric_disk(u_pos) * scene_radius;
+                let frame = Frame::from_z(dir);
+                let p =
+                    scene_center + frame.to_world(Vec3::new(d.x, d.y, 0.0)) - dir * scene_radius;
+                Some(LightEmission {
+                    p,
+                    p_error: Vec3::ZERO,
+                    n: dir,
+                    dir,
+                    le: radiance,
+                    pdf_pos: 1.0 / (PI * scene_radius * scene_radius),
+                    pdf_dir: INV_4PI,
+                    delta_pos: false,
+                })
+            }
+        }
+    }
+
     pub fn is_delta(&self) -> bool {
         matches!(self, Light::Point { .. } | Light::Spot { .. })
     }
