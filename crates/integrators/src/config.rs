@@ -1,6 +1,7 @@
 //! Integrator settings as RON, shared by `lightlab render --integrator '...'` and experiment files.
 
 use crate::Integrator;
+use crate::bdpt::Bdpt;
 use crate::light::LightTracer;
 use crate::path::PathTracer;
 use lightlab_samplers::SamplerConfig;
@@ -15,6 +16,66 @@ pub enum IntegratorConfig {
     /// Light tracing (particle tracing; Arvo & Kirk 1990, Dutré et al. 1993): paths from the lights,
     /// every non-specular vertex connected to the camera.
     Light(LightConfig),
+    /// Bidirectional path tracing (Veach & Guibas 1994): every (s, t) connection strategy, combined
+    /// by the balance heuristic.
+    Bdpt(BdptConfig),
+}
+
+/// Settings of bidirectional path tracing.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    try_from = "BdptConfigRaw",
+    into = "BdptConfigRaw"
+)]
+pub struct BdptConfig {
+    pub max_bounces: Option<u32>,
+    pub min_bounces: u32,
+    pub russian_roulette: Option<u32>,
+    pub sampler: SamplerConfig,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Bdpt")]
+pub struct BdptConfigRaw {
+    /// Largest number of scattering vertices of a full path; `None` for no limit. Default `None`.
+    #[serde(default)]
+    pub max_bounces: Option<u32>,
+    /// Smallest number of scattering vertices a contribution must have. Default 0.
+    #[serde(default)]
+    pub min_bounces: u32,
+    /// Russian roulette on both subpaths from this many vertices on; `None` turns it off.
+    /// Default `Some(3)`.
+    #[serde(default = "default_rr")]
+    pub russian_roulette: Option<u32>,
+    /// Sampler of the camera subpaths (the light subpaths use independent samples). Default
+    /// `Independent`.
+    #[serde(default)]
+    pub sampler: SamplerConfig,
+}
+
+impl TryFrom<BdptConfigRaw> for BdptConfig {
+    type Error = String;
+    fn try_from(r: BdptConfigRaw) -> Result<Self, String> {
+        check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
+        Ok(BdptConfig {
+            max_bounces: r.max_bounces,
+            min_bounces: r.min_bounces,
+            russian_roulette: r.russian_roulette,
+            sampler: r.sampler,
+        })
+    }
+}
+
+impl From<BdptConfig> for BdptConfigRaw {
+    fn from(c: BdptConfig) -> Self {
+        BdptConfigRaw {
+            max_bounces: c.max_bounces,
+            min_bounces: c.min_bounces,
+            russian_roulette: c.russian_roulette,
+            sampler: c.sampler,
+        }
+    }
 }
 
 /// Settings of the light tracer.
@@ -207,6 +268,7 @@ impl IntegratorConfig {
         match self {
             IntegratorConfig::Path(c) => Box::new(PathTracer::new(c.clone())),
             IntegratorConfig::Light(c) => Box::new(LightTracer::new(c.clone())),
+            IntegratorConfig::Bdpt(c) => Box::new(Bdpt::new(c.clone())),
         }
     }
 }

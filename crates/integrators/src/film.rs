@@ -40,6 +40,23 @@ impl PixelSums {
         PixelSums { mean, m2, count }
     }
 
+    /// The sum of this pixel estimate and an independent one (a light-tracing part over other
+    /// samples): means add, variances of the means add; the count stays this one's.
+    pub fn plus_independent(&self, other: &PixelSums) -> PixelSums {
+        let (a, b) = (self.variance_of_mean(), other.variance_of_mean());
+        let n = self.count as f64;
+        let mut out = *self;
+        for c in 0..3 {
+            out.mean[c] += other.mean[c];
+            out.m2[c] = if self.count >= 2 {
+                (a[c] + b[c]) * n * (n - 1.0)
+            } else {
+                0.0
+            };
+        }
+        out
+    }
+
     /// Combines the statistics of two disjoint sets of samples (Chan et al. 1983, eq. 2.1).
     pub fn merge(&mut self, other: &PixelSums) {
         if other.count == 0 {

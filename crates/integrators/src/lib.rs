@@ -6,13 +6,14 @@
 //! `min_bounces` drops the lower terms. Non-finite contributions are counted and kept out of the film.
 //! Nothing here does I/O.
 
+pub mod bdpt;
 mod config;
 mod film;
 pub mod light;
 pub mod path;
 mod render;
 
-pub use config::{IntegratorConfig, LightConfig, Strategy};
+pub use config::{BdptConfig, IntegratorConfig, LightConfig, Strategy};
 pub use film::{Film, PixelSums};
 pub use render::{Budget, RenderOutput, RenderStats};
 

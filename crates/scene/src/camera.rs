@@ -157,6 +157,24 @@ impl Camera {
         })
     }
 
+    /// Solid-angle density with which camera rays from the lens point `p_lens`, over uniformly
+    /// distributed raster positions of the whole film, have direction `w` (unit): 1 / (A · cos³ θ)
+    /// inside the image, 0 outside (pbrt-v4 §5.2, `PdfWe`; A as in [`Camera::sample_wi`]).
+    pub fn pdf_we_dir(&self, p_lens: Vec3, w: Vec3) -> f32 {
+        let cos = w.dot(self.forward);
+        if !(cos > 0.0) {
+            return 0.0;
+        }
+        let toward = match self.lens {
+            Lens::Pinhole => w,
+            Lens::ThinLens { focus_distance, .. } => p_lens + w * (focus_distance / cos) - self.eye,
+        };
+        if self.raster_of_direction(toward).is_none() {
+            return 0.0;
+        }
+        1.0 / (4.0 * self.half_size.x * self.half_size.y * cos * cos * cos)
+    }
+
     /// The raster position at which a pinhole ray with direction `d` leaves the eye, if inside the image.
     pub fn raster_of_direction(&self, d: Vec3) -> Option<Vec2> {
         let z = d.dot(self.forward);

@@ -1,0 +1,862 @@
+//! Bidirectional path tracing (Veach & Guibas 1994; Lafortune & Willems 1993; Veach 1997 ch. 10)
+//! with every (s, t) strategy combined by multiple importance sampling (Veach 1997 ch. 9).
+//!
+//! Each pixel sample traces a camera subpath z₀…z_{t−1} and a light subpath y₀…y_{s−1} and forms
+//! every full path y₀…y_{s−1} z_{t−1}…z₀ with s + t − 2 scattering vertices within the bounce
+//! limits: s = 0 (the camera path hits an emitter), s = 1 (a point sampled on a light, next-event
+//! estimation), t = 1 (a light vertex connected to a point on the lens and splatted into the pixel it
+//! lands on, as in light tracing) and s, t ≥ 2 (a deterministic connection of the two subpaths).
+//! Paths with s + t = 2 (an emitter seen directly) have one strategy, s = 0.
+//!
+//! MIS: the balance heuristic, computed by Veach's walk over ratios of the area-measure densities
+//! with which neighbouring strategies would have produced the same path (Veach 1997 §10.2;
+//! pbrt-v4 §16.3.4): each vertex stores `pdf_fwd` (density of its generation along its own subpath)
+//! and `pdf_rev` (density of its generation from the other side), and the weight of (s, t) is
+//! 1 / Σᵢ (pᵢ / p_s). Strategies that cannot produce a path (a delta vertex at a connection) are left
+//! out of the sum. Russian roulette decides how long subpaths are, not the densities in the weights,
+//! so the weights of all strategies of a path still sum to one.
+//!
+//! Sample dimensions per pixel sample: pixel (2), lens (2), then the camera subpath (per vertex:
+//! lobe 1, direction 2, roulette 1), then the light subpath (light 1, position 2, direction 2, per
+//! vertex lobe 1, direction 2, roulette 1) and the connection samples (per camera vertex: light 1,
+//! light point 2, lens 2). Light subpath values come from a second stream keyed by the pixel sample,
+//! so the camera dimensions keep the layout stratified samplers expect.
+
+use crate::config::BdptConfig;
+use crate::film::{Film, PixelSums};
+use crate::render::Counters;
+use crate::{Budget, Integrator, RenderOutput, RenderStats};
+use glam::{Vec2, Vec3};
+use lightlab_core::{Progress, Ray, Rgb, TransportMode};
+use lightlab_geometry::{NO_LIGHT, spawn_ray, spawn_ray_to, spawn_ray_to_point};
+use lightlab_materials::SurfaceBsdf;
+use lightlab_samplers::{Independent, Sampler, SamplerVisitor};
+use lightlab_scene::{Light, Scene};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Technique numbers for the non-finite counters.
+const CONNECTION: usize = 0;
+const SPLAT: usize = 1;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    Camera,
+    /// A light's origin vertex, or a point sampled on light `light`.
+    Light {
+        light: u32,
+    },
+    Surface,
+}
+
+/// One vertex of a subpath (pbrt-v4 §16.3.1).
+#[derive(Clone, Copy, Debug)]
+struct Vertex {
+    kind: Kind,
+    p: Vec3,
+    p_error: Vec3,
+    /// Geometric normal (zero for point lights and the camera; the direction of travel for an
+    /// infinite light).
+    ng: Vec3,
+    /// Shading normal (= ng where there is no shading frame).
+    ns: Vec3,
+    sb: Option<SurfaceBsdf>,
+    /// Light id of an emissive surface hit, `NO_LIGHT` otherwise.
+    emitter: u32,
+    beta: Rgb,
+    pdf_fwd: f32,
+    pdf_rev: f32,
+    delta: bool,
+    /// An emitter at infinity (environment): `ng` is the direction the light travels.
+    infinite: bool,
+}
+
+impl Vertex {
+    fn new(kind: Kind, p: Vec3, beta: Rgb) -> Vertex {
+        Vertex {
+            kind,
+            p,
+            p_error: Vec3::ZERO,
+            ng: Vec3::ZERO,
+            ns: Vec3::ZERO,
+            sb: None,
+            emitter: NO_LIGHT,
+            beta,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            delta: false,
+            infinite: false,
+        }
+    }
+
+    fn on_surface(&self) -> bool {
+        self.ng != Vec3::ZERO && !self.infinite
+    }
+
+    /// The light this vertex emits as, if any.
+    fn light(&self) -> Option<u32> {
+        match self.kind {
+            Kind::Light { light } => Some(light),
+            Kind::Surface if self.emitter != NO_LIGHT => Some(self.emitter),
+            _ => None,
+        }
+    }
+
+    fn connectible(&self, scene: &Scene) -> bool {
+        match self.kind {
+            Kind::Camera => true,
+            Kind::Light { light } => {
+                !self.infinite || !matches!(scene.lights[light as usize], Light::Environment { .. })
+            }
+            Kind::Surface => !self.delta,
+        }
+    }
+
+    /// f toward `next` for arrival from `prev` (surface vertices), in `mode`.
+    fn f(&self, prev: &Vertex, next: &Vertex, mode: TransportMode) -> Rgb {
+        match &self.sb {
+            Some(sb) => {
+                sb.eval(
+                    (prev.p - self.p).normalize(),
+                    (next.p - self.p).normalize(),
+                    mode,
+                )
+                .f
+            }
+            None => Rgb::BLACK,
+        }
+    }
+
+    /// Radiance this vertex emits toward `to`.
+    fn le(&self, scene: &Scene, to: &Vertex) -> Rgb {
+        let Some(light) = self.light() else {
+            return Rgb::BLACK;
+        };
+        match scene.lights[light as usize] {
+            Light::Area {
+                radiance,
+                two_sided,
+                ..
+            } => Light::area_le(radiance, two_sided, self.ng, (to.p - self.p).normalize()),
+            Light::Environment { radiance } if self.infinite => radiance,
+            _ => Rgb::BLACK,
+        }
+    }
+
+    /// Converts a solid-angle density of the direction from `self` to `next` into an area density at
+    /// `next` (solid angle kept for an infinite `next`).
+    fn convert_density(&self, pdf_w: f32, next: &Vertex) -> f32 {
+        if next.infinite {
+            return pdf_w;
+        }
+        let w = next.p - self.p;
+        let d2 = w.length_squared();
+        if !(d2 > 0.0) {
+            return 0.0;
+        }
+        let mut pdf = pdf_w / d2;
+        if next.on_surface() {
+            pdf *= next.ng.dot(w / d2.sqrt()).abs();
+        }
+        pdf
+    }
+
+    /// Area density at `next` of sampling the direction self → next, having arrived from `prev`.
+    fn pdf(&self, scene: &Scene, prev: Option<&Vertex>, next: &Vertex) -> f32 {
+        if matches!(self.kind, Kind::Light { .. }) {
+            return self.pdf_light(scene, next);
+        }
+        let w_next = direction(self, next);
+        let pdf_w = match self.kind {
+            Kind::Camera => scene.camera.pdf_we_dir(self.p, w_next),
+            _ => match (&self.sb, prev) {
+                (Some(sb), Some(prev)) => sb.pdf(direction(self, prev), w_next),
+                _ => 0.0,
+            },
+        };
+        self.convert_density(pdf_w, next)
+    }
+
+    /// Area density at `v` of this emitter sending light toward `v` (pbrt-v4 `PdfLight`).
+    fn pdf_light(&self, scene: &Scene, v: &Vertex) -> f32 {
+        let Some(light) = self.light() else {
+            return 0.0;
+        };
+        let l = &scene.lights[light as usize];
+        if self.infinite {
+            // Rays from infinity start on a disk of the scene radius: area density 1/(πR²),
+            // converted by the cosine at `v`.
+            let (pdf_pos, _) = l.pdf_le(scene.shapes(), scene.radius, Vec3::ZERO, self.ng);
+            return if v.on_surface() {
+                pdf_pos * v.ng.dot(self.ng).abs()
+            } else {
+                pdf_pos
+            };
+        }
+        let w = v.p - self.p;
+        let d2 = w.length_squared();
+        if !(d2 > 0.0) {
+            return 0.0;
+        }
+        let w = w / d2.sqrt();
+        let (_, pdf_dir) = l.pdf_le(scene.shapes(), scene.radius, self.ng, w);
+        let mut pdf = pdf_dir / d2;
+        if v.on_surface() {
+            pdf *= v.ng.dot(w).abs();
+        }
+        pdf
+    }
+
+    /// Density of this vertex as the origin of a light subpath: light choice × area density
+    /// (pbrt-v4 `PdfLightOrigin`); for an infinite light, the directional density.
+    fn pdf_light_origin(&self, scene: &Scene) -> f32 {
+        let Some(light) = self.light() else {
+            return 0.0;
+        };
+        let pmf = scene.light_pmf(light);
+        if self.infinite {
+            return pmf * lightlab_core::INV_4PI;
+        }
+        let (pdf_pos, _) =
+            scene.lights[light as usize].pdf_le(scene.shapes(), scene.radius, self.ng, self.ng);
+        pmf * pdf_pos
+    }
+}
+
+fn direction(from: &Vertex, to: &Vertex) -> Vec3 {
+    if to.infinite {
+        -to.ng
+    } else {
+        (to.p - from.p).normalize()
+    }
+}
+
+pub struct Bdpt {
+    config: BdptConfig,
+}
+
+impl Bdpt {
+    pub fn new(config: BdptConfig) -> Self {
+        Bdpt { config }
+    }
+
+    /// Extends `path` by a random walk from `ray` (pbrt-v4 `RandomWalk`), at most `max_vertices`
+    /// new vertices. `pdf_w` is the solid-angle density of `ray`'s direction.
+    #[allow(clippy::too_many_arguments)]
+    fn random_walk<S: Sampler>(
+        &self,
+        scene: &Scene,
+        mut ray: Ray,
+        mut beta: Rgb,
+        pdf_w: f32,
+        max_vertices: u32,
+        mode: TransportMode,
+        sampler: &mut S,
+        path: &mut Vec<Vertex>,
+        counters: &mut Counters,
+    ) {
+        let mut pdf_fwd_w = pdf_w;
+        let mut added = 0u32;
+        while added < max_vertices {
+            counters.rays += 1;
+            let Some(hit) = scene.intersect(&ray) else {
+                // Camera paths that escape end on the environment, if there is one.
+                if mode == TransportMode::Radiance
+                    && let Some(&env) = scene.environment_lights().first()
+                {
+                    let mut v = Vertex::new(Kind::Light { light: env }, ray.o + ray.d, beta);
+                    v.infinite = true;
+                    v.ng = ray.d.normalize();
+                    v.pdf_fwd = pdf_fwd_w;
+                    path.push(v);
+                }
+                break;
+            };
+            let bsdf = scene.materials[hit.material as usize];
+            let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
+            let mut v = Vertex::new(Kind::Surface, hit.p, beta);
+            v.p_error = hit.p_error;
+            v.ng = hit.ng;
+            v.ns = sb.frame.n;
+            v.sb = Some(sb);
+            v.emitter = hit.light;
+            let prev = *path.last().expect("a walk starts from a vertex");
+            v.pdf_fwd = prev.convert_density(pdf_fwd_w, &v);
+            path.push(v);
+            added += 1;
+            let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
+            if added >= max_vertices {
+                break;
+            }
+            let wo = -ray.d.normalize();
+            let Some(s) = sb.sample(wo, u_lobe, u_dir, mode) else {
+                break;
+            };
+            if s.weight.is_black() {
+                break;
+            }
+            beta *= s.weight;
+            let mut pdf_rev_w = sb.pdf(s.wi, wo);
+            pdf_fwd_w = s.pdf;
+            let n = path.len();
+            if s.delta {
+                path[n - 1].delta = true;
+                pdf_fwd_w = 0.0;
+                pdf_rev_w = 0.0;
+            }
+            let this = path[n - 1];
+            path[n - 2].pdf_rev = this.convert_density(pdf_rev_w, &path[n - 2]);
+            if let Some(rr) = self.config.russian_roulette
+                && added >= rr
+            {
+                let survive = beta.max_component().min(1.0);
+                if !(u_rr < survive) {
+                    break;
+                }
+                beta /= survive;
+            }
+            ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
+        }
+    }
+
+    /// The camera subpath through raster position `film`.
+    fn camera_subpath<S: Sampler>(
+        &self,
+        scene: &Scene,
+        film: Vec2,
+        sampler: &mut S,
+        max_vertices: u32,
+        path: &mut Vec<Vertex>,
+        counters: &mut Counters,
+    ) {
+        let ray = scene.camera.generate_ray(film, sampler.next_2d());
+        path.push(Vertex::new(Kind::Camera, ray.o, Rgb::WHITE));
+        let pdf_dir = scene.camera.pdf_we_dir(ray.o, ray.d);
+        self.random_walk(
+            scene,
+            ray,
+            Rgb::WHITE,
+            pdf_dir,
+            max_vertices - 1,
+            TransportMode::Radiance,
+            sampler,
+            path,
+            counters,
+        );
+    }
+
+    /// The light subpath (pbrt-v4 `GenerateLightSubpath`).
+    fn light_subpath<S: Sampler>(
+        &self,
+        scene: &Scene,
+        sampler: &mut S,
+        max_vertices: u32,
+        path: &mut Vec<Vertex>,
+        counters: &mut Counters,
+    ) {
+        let (u_light, u_pos, u_dir) = (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
+        if max_vertices == 0 {
+            return;
+        }
+        let Some((light, pmf)) = scene.sample_light(u_light) else {
+            return;
+        };
+        let l = &scene.lights[light as usize];
+        let Some(em) = l.sample_le(scene.shapes(), scene.center, scene.radius, u_pos, u_dir) else {
+            return;
+        };
+        let infinite = matches!(l, Light::Environment { .. });
+        let mut v = Vertex::new(Kind::Light { light }, em.p, em.le / (pmf * em.pdf_pos));
+        v.p_error = em.p_error;
+        if infinite {
+            v.infinite = true;
+            v.ng = em.dir;
+            // The origin's density is directional for an infinite light (pbrt-v4 §16.3.2).
+            v.pdf_fwd = pmf * lightlab_core::INV_4PI;
+        } else {
+            v.pdf_fwd = pmf * em.pdf_pos;
+            if !em.delta_pos {
+                v.ng = em.n;
+                v.ns = em.n;
+            }
+        }
+        path.push(v);
+        let cos = if em.delta_pos || infinite {
+            1.0
+        } else {
+            em.n.dot(em.dir).abs()
+        };
+        let beta = em.le * (cos / (pmf * em.pdf_pos * em.pdf_dir));
+        let ray = if em.delta_pos || infinite {
+            Ray::new(em.p, em.dir)
+        } else {
+            spawn_ray(em.p, em.p_error, em.n, em.dir)
+        };
+        self.random_walk(
+            scene,
+            ray,
+            beta,
+            em.pdf_dir,
+            max_vertices - 1,
+            TransportMode::Importance,
+            sampler,
+            path,
+            counters,
+        );
+        if infinite && path.len() > 1 {
+            // A ray from infinity starts on the disk: its first hit has the disk's area density.
+            let first = &mut path[1];
+            first.pdf_fwd = em.pdf_pos
+                * if first.on_surface() {
+                    first.ng.dot(em.dir).abs()
+                } else {
+                    1.0
+                };
+        }
+    }
+
+    fn visible(scene: &Scene, a: &Vertex, b: &Vertex) -> bool {
+        let ray = if b.infinite {
+            let mut r = spawn_ray(a.p, a.p_error, a.ng, -b.ng);
+            r.t_max = f32::INFINITY;
+            r
+        } else if a.on_surface() && b.on_surface() {
+            spawn_ray_to(a.p, a.p_error, a.ng, b.p, b.p_error, b.ng)
+        } else if a.on_surface() {
+            spawn_ray_to_point(a.p, a.p_error, a.ng, b.p)
+        } else if b.on_surface() {
+            spawn_ray_to_point(b.p, b.p_error, b.ng, a.p)
+        } else {
+            Ray::segment(a.p, b.p - a.p, 1.0 - 1e-4)
+        };
+        !scene.occluded(&ray)
+    }
+
+    /// G(a, b) = |cos θ_a| |cos θ_b| / d² with shading normals where there are any.
+    fn g(a: &Vertex, b: &Vertex) -> f32 {
+        if b.infinite {
+            return if a.ns != Vec3::ZERO {
+                a.ns.dot(b.ng).abs()
+            } else {
+                1.0
+            };
+        }
+        let d = b.p - a.p;
+        let d2 = d.length_squared();
+        if !(d2 > 0.0) {
+            return 0.0;
+        }
+        let w = d / d2.sqrt();
+        let ca = if a.ns != Vec3::ZERO {
+            a.ns.dot(w).abs()
+        } else {
+            1.0
+        };
+        let cb = if b.ns != Vec3::ZERO {
+            b.ns.dot(w).abs()
+        } else {
+            1.0
+        };
+        ca * cb / d2
+    }
+
+    /// The MIS weight of strategy (s, t) (pbrt-v4 `MISWeight`, balance heuristic). `sampled` replaces
+    /// the endpoint that strategy sampled anew (the light point for s = 1, the lens point for t = 1).
+    fn mis_weight(
+        scene: &Scene,
+        light: &[Vertex],
+        camera: &[Vertex],
+        sampled: Option<Vertex>,
+        s: usize,
+        t: usize,
+    ) -> f32 {
+        if s + t == 2 {
+            return 1.0;
+        }
+        let mut lv: Vec<Vertex> = light[..s].to_vec();
+        let mut cv: Vec<Vertex> = camera[..t].to_vec();
+        if s == 1 {
+            lv[0] = sampled.expect("s = 1 samples the light vertex");
+        } else if t == 1 {
+            cv[0] = sampled.expect("t = 1 samples the camera vertex");
+        }
+        // The connection vertices are never delta for the connection itself.
+        if t > 0 {
+            cv[t - 1].delta = false;
+        }
+        if s > 0 {
+            lv[s - 1].delta = false;
+        }
+        // Densities of the connection vertices and their predecessors from the other side.
+        if t > 0 {
+            let pt = cv[t - 1];
+            cv[t - 1].pdf_rev = if s > 0 {
+                let qs_minus = if s > 1 { Some(lv[s - 2]) } else { None };
+                lv[s - 1].pdf(scene, qs_minus.as_ref(), &pt)
+            } else {
+                pt.pdf_light_origin(scene)
+            };
+        }
+        if t > 1 {
+            let (pt, pt_minus) = (cv[t - 1], cv[t - 2]);
+            cv[t - 2].pdf_rev = if s > 0 {
+                pt.pdf(scene, Some(&lv[s - 1]), &pt_minus)
+            } else {
+                pt.pdf_light(scene, &pt_minus)
+            };
+        }
+        if s > 0 {
+            let qs = lv[s - 1];
+            let pt_minus = if t > 1 { Some(cv[t - 2]) } else { None };
+            lv[s - 1].pdf_rev = cv[t - 1].pdf(scene, pt_minus.as_ref(), &qs);
+        }
+        if s > 1 {
+            let (qs, qs_minus) = (lv[s - 1], lv[s - 2]);
+            lv[s - 2].pdf_rev = qs.pdf(scene, Some(&cv[t - 1]), &qs_minus);
+        }
+        let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
+        let mut sum = 0.0f32;
+        let mut ri = 1.0f32;
+        for i in (1..t).rev() {
+            ri *= remap(cv[i].pdf_rev) / remap(cv[i].pdf_fwd);
+            if !cv[i].delta && !cv[i - 1].delta {
+                sum += ri;
+            }
+        }
+        ri = 1.0;
+        for i in (0..s).rev() {
+            ri *= remap(lv[i].pdf_rev) / remap(lv[i].pdf_fwd);
+            let delta_before = if i > 0 {
+                lv[i - 1].delta
+            } else {
+                lv[0]
+                    .light()
+                    .is_some_and(|l| scene.lights[l as usize].is_delta())
+            };
+            if !lv[i].delta && !delta_before {
+                sum += ri;
+            }
+        }
+        1.0 / (1.0 + sum)
+    }
+
+    /// Contribution of strategy (s, t) to the pixel (`None`) or, for t = 1, to a splat position.
+    #[allow(clippy::too_many_arguments)]
+    fn connect(
+        &self,
+        scene: &Scene,
+        light: &[Vertex],
+        camera: &[Vertex],
+        s: usize,
+        t: usize,
+        u_light: f32,
+        u_point: Vec2,
+        u_lens: Vec2,
+        counters: &mut Counters,
+    ) -> Option<(Rgb, Option<Vec2>)> {
+        // An escaped camera path can only be completed by s = 0.
+        if t > 1 && s != 0 && camera[t - 1].infinite {
+            return None;
+        }
+        let mut sampled = None;
+        let mut raster = None;
+        let l = if s == 0 {
+            let pt = &camera[t - 1];
+            pt.light()?;
+            pt.beta * pt.le(scene, &camera[t - 2])
+        } else if t == 1 {
+            let qs = &light[s - 1];
+            if !qs.connectible(scene) || qs.infinite {
+                return None;
+            }
+            let cs = scene.camera.sample_wi(qs.p, u_lens)?;
+            if !(cs.pdf_w > 0.0) {
+                return None;
+            }
+            // s ≥ 2 here (s = t = 1, an emitter seen directly, is left to s = 0): qs is a surface vertex.
+            let v = Vertex::new(Kind::Camera, cs.p_lens, Rgb::splat(cs.we / cs.pdf_w));
+            raster = Some(cs.raster);
+            let value = qs.beta * qs.f(&light[s - 2], &v, TransportMode::Importance);
+            let cos = qs.ns.dot(cs.wi).abs();
+            let l = value * v.beta * cos;
+            sampled = Some(v);
+            if l.is_black() {
+                return None;
+            }
+            counters.rays += 1;
+            if !Self::visible(scene, qs, &v) {
+                return None;
+            }
+            l
+        } else if s == 1 {
+            let pt = &camera[t - 1];
+            if !pt.connectible(scene) {
+                return None;
+            }
+            let (light_index, pmf) = scene.sample_light(u_light)?;
+            let lt = &scene.lights[light_index as usize];
+            let ls = lt.sample_li(scene.shapes(), pt.p, u_point)?;
+            if !(ls.pdf_w > 0.0) || ls.li.is_black() {
+                return None;
+            }
+            let mut v = Vertex::new(
+                Kind::Light { light: light_index },
+                ls.p,
+                ls.li / (ls.pdf_w * pmf),
+            );
+            v.p_error = ls.p_error;
+            if ls.infinite {
+                v.infinite = true;
+                v.ng = -ls.wi;
+            } else if !ls.delta {
+                v.ng = ls.n;
+                v.ns = ls.n;
+            }
+            v.pdf_fwd = v.pdf_light_origin(scene);
+            let f = pt.f(&camera[t - 2], &v, TransportMode::Radiance);
+            let l = pt.beta * f * v.beta * pt.ns.dot(ls.wi).abs();
+            sampled = Some(v);
+            if l.is_black() {
+                return None;
+            }
+            counters.rays += 1;
+            if !Self::visible(scene, pt, &v) {
+                return None;
+            }
+            l
+        } else {
+            let (qs, pt) = (&light[s - 1], &camera[t - 1]);
+            if !qs.connectible(scene) || !pt.connectible(scene) || qs.infinite {
+                return None;
+            }
+            // s ≥ 2: qs is a surface vertex.
+            let fq = qs.f(&light[s - 2], pt, TransportMode::Importance);
+            let l = qs.beta * fq * pt.f(&camera[t - 2], qs, TransportMode::Radiance) * pt.beta;
+            if l.is_black() {
+                return None;
+            }
+            let l = l * Self::g(qs, pt);
+            if l.is_black() {
+                return None;
+            }
+            counters.rays += 1;
+            if !Self::visible(scene, qs, pt) {
+                return None;
+            }
+            l
+        };
+        let w = Self::mis_weight(scene, light, camera, sampled, s, t);
+        Some((l * w, raster))
+    }
+}
+
+impl Integrator for Bdpt {
+    fn render(
+        &self,
+        scene: &Scene,
+        budget: &Budget,
+        seed: u64,
+        progress: &dyn Progress,
+    ) -> RenderOutput {
+        self.config.sampler.dispatch(
+            budget.spp,
+            RenderWith {
+                bdpt: self,
+                scene,
+                budget,
+                seed,
+                progress,
+            },
+        )
+    }
+}
+
+struct RenderWith<'a> {
+    bdpt: &'a Bdpt,
+    scene: &'a Scene,
+    budget: &'a Budget,
+    seed: u64,
+    progress: &'a dyn Progress,
+}
+
+/// Splats of one tile, added to the image in tile order.
+struct TileResult {
+    x0: u32,
+    y0: u32,
+    w: u32,
+    sums: Vec<PixelSums>,
+    splats: Vec<(u32, Rgb)>,
+    counters: Counters,
+}
+
+const TILE: u32 = 16;
+
+impl SamplerVisitor for RenderWith<'_> {
+    type Output = RenderOutput;
+
+    fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
+        let RenderWith {
+            bdpt,
+            scene,
+            budget,
+            seed,
+            progress,
+        } = self;
+        let start = Instant::now();
+        let cfg = &bdpt.config;
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX - 2);
+        let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
+            .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+            .collect();
+        progress.start(width as u64 * height as u64);
+        let results: Vec<TileResult> = tiles
+            .par_iter()
+            .map(|&(x0, y0)| {
+                let (w, h) = (TILE.min(width - x0), TILE.min(height - y0));
+                let mut counters = Counters::default();
+                let mut sums = vec![PixelSums::default(); (w * h) as usize];
+                let mut splats = Vec::new();
+                let mut camera = Vec::new();
+                let mut light = Vec::new();
+                for y in 0..h {
+                    for x in 0..w {
+                        let pixel = (y0 + y) as u64 * width as u64 + (x0 + x) as u64;
+                        let mut sampler = prototype.clone();
+                        let mut light_sampler = Independent::new();
+                        for i in 0..budget.spp {
+                            sampler.start_pixel_sample(seed, pixel, i as u64);
+                            light_sampler.start_pixel_sample(
+                                seed ^ 0x6c69_6768_7470_6174,
+                                pixel,
+                                i as u64,
+                            );
+                            let film =
+                                Vec2::new((x0 + x) as f32, (y0 + y) as f32) + sampler.next_2d();
+                            camera.clear();
+                            light.clear();
+                            bdpt.camera_subpath(
+                                scene,
+                                film,
+                                &mut sampler,
+                                max_bounces.saturating_add(2),
+                                &mut camera,
+                                &mut counters,
+                            );
+                            bdpt.light_subpath(
+                                scene,
+                                &mut light_sampler,
+                                max_bounces.saturating_add(1),
+                                &mut light,
+                                &mut counters,
+                            );
+                            let mut l = Rgb::BLACK;
+                            for t in 1..=camera.len() {
+                                let (u_light, u_point, u_lens) = (
+                                    light_sampler.next_1d(),
+                                    light_sampler.next_2d(),
+                                    light_sampler.next_2d(),
+                                );
+                                for s in 0..=light.len() {
+                                    let depth = (s + t) as i64 - 2;
+                                    if (s == 1 && t == 1)
+                                        || depth < cfg.min_bounces as i64
+                                        || depth > max_bounces as i64
+                                    {
+                                        continue;
+                                    }
+                                    let Some((c, raster)) = bdpt.connect(
+                                        scene,
+                                        &light,
+                                        &camera,
+                                        s,
+                                        t,
+                                        u_light,
+                                        u_point,
+                                        u_lens,
+                                        &mut counters,
+                                    ) else {
+                                        continue;
+                                    };
+                                    if !c.is_finite() {
+                                        counters.non_finite
+                                            [if raster.is_some() { SPLAT } else { CONNECTION }] +=
+                                            1;
+                                        continue;
+                                    }
+                                    match raster {
+                                        Some(r) => {
+                                            let (px, py) = (
+                                                (r.x as u32).min(width - 1),
+                                                (r.y as u32).min(height - 1),
+                                            );
+                                            splats.push((py * width + px, c));
+                                        }
+                                        None => l += c,
+                                    }
+                                }
+                            }
+                            sums[(y * w + x) as usize].add([l.r as f64, l.g as f64, l.b as f64]);
+                        }
+                    }
+                }
+                progress.advance((w * h) as u64);
+                TileResult {
+                    x0,
+                    y0,
+                    w,
+                    sums,
+                    splats,
+                    counters,
+                }
+            })
+            .collect();
+
+        // Own samples per pixel, and splats (t = 1) as a light-tracing estimate over all paths.
+        let pixels = width as usize * height as usize;
+        let paths = pixels as u64 * budget.spp as u64;
+        let mut film = Film::new(width, height);
+        let mut splat_sum = vec![[0.0f64; 3]; pixels];
+        let mut splat_sq = vec![[0.0f64; 3]; pixels];
+        let mut counters = Counters::default();
+        let scale = pixels as f64;
+        for r in &results {
+            counters.merge(&r.counters);
+            for (k, s) in r.sums.iter().enumerate() {
+                let (x, y) = (r.x0 + k as u32 % r.w, r.y0 + k as u32 / r.w);
+                film.pixels[(y * width + x) as usize] = *s;
+            }
+            for &(pixel, c) in &r.splats {
+                let v = [c.r as f64 * scale, c.g as f64 * scale, c.b as f64 * scale];
+                for k in 0..3 {
+                    splat_sum[pixel as usize][k] += v[k];
+                    splat_sq[pixel as usize][k] += v[k] * v[k];
+                }
+            }
+        }
+        for (i, p) in film.pixels.iter_mut().enumerate() {
+            let splat = PixelSums::from_sums(splat_sum[i], splat_sq[i], paths);
+            *p = p.plus_independent(&splat);
+        }
+        let wall = start.elapsed().as_secs_f64();
+        let samples = paths;
+        let stats = RenderStats {
+            integrator: "Bdpt".into(),
+            width,
+            height,
+            spp: budget.spp,
+            seed,
+            threads: rayon::current_num_threads(),
+            wall_seconds: wall,
+            samples,
+            rays: counters.rays,
+            rays_per_second: counters.rays as f64 / wall.max(1e-9),
+            samples_per_second: samples as f64 / wall.max(1e-9),
+            non_finite: vec![
+                ("connection".into(), counters.non_finite[CONNECTION]),
+                ("splat".into(), counters.non_finite[SPLAT]),
+            ],
+        };
+        RenderOutput { film, stats }
+    }
+}

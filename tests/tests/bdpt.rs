@@ -1,0 +1,175 @@
+//! Bidirectional path tracing against analytic solutions and the path tracer: the white furnace
+//! term by term, a plane under a constant sky (ρ·L), the Cornell box (pinhole and thin lens, all
+//! bounces and one Neumann term alone), the caustic sphere (specular paths), point and spot lights
+//! over a plane, and bit-identical images on 1 and 2 threads.
+//!
+//! False-failure rate: each test's z-tests are Šidák-corrected to ≤ 1e-3 per test; fixed seeds.
+
+use lightlab_testkit::stats::{sidak, z_critical};
+use lightlab_tests::{cornell, furnace, render, scene};
+
+fn z(a: f64, sa: f64, b: f64, sb: f64) -> f64 {
+    (a - b) / (sa * sa + sb * sb).sqrt().max(1e-9 * b.abs().max(1e-30))
+}
+
+#[test]
+fn furnace_every_bounce_count() {
+    let (rho, le) = (0.7f64, 0.5f64);
+    let sc = scene(&furnace(rho as f32, le as f32, 1.0, (12, 8)));
+    let configs: Vec<(String, f64)> = (0..=4)
+        .map(|k| {
+            (
+                format!("Bdpt(max_bounces: {k})"),
+                (0..=k).map(|i| le * rho.powi(i)).sum(),
+            )
+        })
+        .chain([
+            (
+                "Bdpt(min_bounces: 2, max_bounces: 2)".to_string(),
+                le * rho * rho,
+            ),
+            ("Bdpt()".to_string(), le / (1.0 - rho)),
+        ])
+        .collect();
+    let crit = z_critical(sidak(1e-3, configs.len() as u64 * 3));
+    for (config, want) in configs {
+        let out = render(&sc, &config, 128, 11);
+        assert_eq!(out.stats.non_finite_total(), 0);
+        let (mean, se) = out.film.average();
+        for c in 0..3 {
+            let z = z(mean[c], se[c], want, 0.0);
+            assert!(
+                z.abs() < crit,
+                "{config}: {} ± {} vs {want}, z = {z:.2}",
+                mean[c],
+                se[c]
+            );
+        }
+    }
+}
+
+#[test]
+fn plane_under_a_constant_sky() {
+    let text = "Scene(camera: Camera(eye: (0, 3, 3), target: (0, 0, 0), fov: 30, resolution: (16, 16)),
+        materials: { \"plane\": Diffuse(albedo: (0.6, 0.5, 0.4)) },
+        shapes: [ Shape(geometry: Quad(corner: (-5, 0, -5), edge1: (0, 0, 10), edge2: (10, 0, 0)), material: \"plane\") ],
+        lights: [ Environment(radiance: (2, 2, 2)) ])";
+    let out = render(&scene(text), "Bdpt()", 256, 5);
+    let (mean, se) = out.film.average();
+    let crit = z_critical(sidak(1e-3, 3));
+    for (c, want) in [1.2, 1.0, 0.8].into_iter().enumerate() {
+        let z = z(mean[c], se[c], want, 0.0);
+        assert!(
+            z.abs() < crit,
+            "channel {c}: {} ± {} vs {want}, z = {z:.2}",
+            mean[c],
+            se[c]
+        );
+    }
+}
+
+/// Mean and standard error of each of n×n image regions.
+fn regions(out: &lightlab_integrators::RenderOutput, n: usize) -> Vec<([f64; 3], [f64; 3])> {
+    let f = &out.film;
+    let (w, h) = (f.width as usize, f.height as usize);
+    let mut r = vec![([0.0; 3], [0.0; 3]); n * n];
+    let per = (w / n * (h / n)) as f64;
+    for y in 0..h {
+        for x in 0..w {
+            let (m, v) = (f.mean(y * w + x), f.variance_of_mean(y * w + x));
+            let g = &mut r[(y * n / h) * n + x * n / w];
+            for c in 0..3 {
+                g.0[c] += m[c] / per;
+                g.1[c] += v[c] / (per * per);
+            }
+        }
+    }
+    r.into_iter().map(|(m, v)| (m, v.map(f64::sqrt))).collect()
+}
+
+/// Compares BDPT with path tracing region by region on each (scene text, settings) case.
+fn agree_with_path_tracing(cases: &[(&str, String, &str, u32)], n: usize) {
+    let crit = z_critical(sidak(1e-3, (cases.len() * n * n * 3) as u64));
+    for (what, text, bounces, spp) in cases {
+        let sc = scene(text);
+        let pt = regions(&render(&sc, &format!("Path({bounces})"), spp * 4, 1), n);
+        let bd = regions(&render(&sc, &format!("Bdpt({bounces})"), *spp, 2), n);
+        for (k, (a, b)) in pt.iter().zip(&bd).enumerate() {
+            for c in 0..3 {
+                let z = z(b.0[c], b.1[c], a.0[c], a.1[c]);
+                assert!(
+                    z.abs() < crit,
+                    "{what} ({bounces}), region {k}, channel {c}: bdpt {} ± {} vs path {} ± {}, z = {z:.2}",
+                    b.0[c],
+                    b.1[c],
+                    a.0[c],
+                    a.1[c]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn cornell_box_agrees_with_path_tracing() {
+    let pinhole = cornell(1.0, [0.0; 3], (32, 32));
+    let thin_lens = pinhole.replace(
+        "fov: 39.3077,",
+        "fov: 39.3077, lens: ThinLens(aperture_radius: 0.15, focus_distance: 3.2),",
+    );
+    agree_with_path_tracing(
+        &[
+            ("pinhole", pinhole.clone(), "max_bounces: 5", 64),
+            (
+                "pinhole, second term only",
+                pinhole,
+                "min_bounces: 2, max_bounces: 2",
+                64,
+            ),
+            ("thin lens", thin_lens, "max_bounces: 3", 64),
+        ],
+        4,
+    );
+}
+
+#[test]
+fn caustic_sphere_and_small_lights_agree_with_path_tracing() {
+    let caustic = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/caustic-sphere.ron"
+    ))
+    .unwrap()
+    .replace("resolution: (256, 256)", "resolution: (24, 24)");
+    let plane = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/point-over-plane.ron"
+    ))
+    .unwrap();
+    let spot = plane.replace(
+        "Point(position: (0, 1, 0), intensity: (10, 10, 10))",
+        "Spot(position: (0, 1, 0), target: (0.3, 0, 0), intensity: (10, 10, 10), cone_angle: 40, falloff_start: 25)",
+    );
+    assert_ne!(spot, plane);
+    agree_with_path_tracing(
+        &[
+            ("caustic sphere", caustic, "max_bounces: 5", 256),
+            ("point light", plane, "", 64),
+            ("spot light", spot, "", 64),
+        ],
+        2,
+    );
+}
+
+#[test]
+fn same_bits_on_one_and_two_threads() {
+    let sc = scene(&cornell(1.0, [0.0; 3], (24, 20)));
+    let on = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| render(&sc, "Bdpt(sampler: Sobol)", 8, 3))
+            .film
+    };
+    assert_eq!(on(1), on(2));
+}
