@@ -25,7 +25,10 @@ fn region_means(out: &lightlab_integrators::RenderOutput) -> Vec<([f64; 3], [f64
             }
         }
     }
-    regions.into_iter().map(|(m, v)| (m, v.map(f64::sqrt))).collect()
+    regions
+        .into_iter()
+        .map(|(m, v)| (m, v.map(f64::sqrt)))
+        .collect()
 }
 
 #[test]
@@ -41,7 +44,12 @@ fn all_samplers_agree_on_the_cornell_box() {
             for c in 0..3 {
                 let se = (a.1[c] * a.1[c] + b.1[c] * b.1[c]).sqrt();
                 let z = (b.0[c] - a.0[c]) / se.max(1e-12);
-                assert!(z.abs() < crit, "{s}: region {k} channel {c}: {} vs {} (Independent), z = {z:.2} (critical {crit:.2})", b.0[c], a.0[c]);
+                assert!(
+                    z.abs() < crit,
+                    "{s}: region {k} channel {c}: {} vs {} (Independent), z = {z:.2} (critical {crit:.2})",
+                    b.0[c],
+                    a.0[c]
+                );
             }
         }
     }
@@ -54,8 +62,19 @@ fn all_samplers_hit_the_furnace_value() {
     let sc = scene(&text);
     let want = 0.5 * (1.0 + 0.7 + 0.49);
     let crit = z_critical(sidak(1e-3, 5 * 3));
-    for s in ["Independent", "Stratified", "LatinHypercube", "Halton", "Sobol"] {
-        let out = render(&sc, &format!("Path(max_bounces: 2, strategy: Uniform, sampler: {s})"), 64, 3);
+    for s in [
+        "Independent",
+        "Stratified",
+        "LatinHypercube",
+        "Halton",
+        "Sobol",
+    ] {
+        let out = render(
+            &sc,
+            &format!("Path(max_bounces: 2, strategy: Uniform, sampler: {s})"),
+            64,
+            3,
+        );
         let (mean, se) = out.film.average();
         for c in 0..3 {
             // Uniform hemisphere sampling keeps some variance (cos θ varies); the floor covers f32

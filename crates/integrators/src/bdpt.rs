@@ -860,3 +860,118 @@ impl SamplerVisitor for RenderWith<'_> {
         RenderOutput { film, stats }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(name: &str) -> Scene {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../scenes")
+            .join(name);
+        lightlab_scene::load_scene(&path).unwrap()
+    }
+
+    /// The vertices of a full path x₀ (on a light) … x_{n−1} (the camera) split as s light and
+    /// t = n − s camera vertices, with every density recomputed from the geometry, as both subpath
+    /// generators would have stored them.
+    fn split(scene: &Scene, z: &[Vertex], s: usize) -> (Vec<Vertex>, Vec<Vertex>) {
+        let n = z.len();
+        let t = n - s;
+        let mut camera: Vec<Vertex> = z[..t].to_vec();
+        let mut light: Vec<Vertex> = z[t..].iter().rev().copied().collect();
+        if let Some(y0) = light.first_mut() {
+            y0.kind = Kind::Light { light: y0.emitter };
+            y0.sb = None;
+            y0.delta = false;
+        }
+        for i in 1..camera.len() {
+            let prev = if i >= 2 { Some(camera[i - 2]) } else { None };
+            camera[i].pdf_fwd = camera[i - 1].pdf(scene, prev.as_ref(), &camera[i]);
+        }
+        if !light.is_empty() {
+            light[0].pdf_fwd = light[0].pdf_light_origin(scene);
+        }
+        for i in 1..light.len() {
+            let prev = if i >= 2 { Some(light[i - 2]) } else { None };
+            light[i].pdf_fwd = light[i - 1].pdf(scene, prev.as_ref(), &light[i]);
+        }
+        // Reverse densities of the interior vertices (the last two of each side are set by
+        // `mis_weight` itself).
+        for i in 0..camera.len().saturating_sub(2) {
+            let next2 = camera[i + 2];
+            camera[i].pdf_rev = camera[i + 1].pdf(scene, Some(&next2), &camera[i]);
+        }
+        for i in 0..light.len().saturating_sub(2) {
+            let next2 = light[i + 2];
+            light[i].pdf_rev = light[i + 1].pdf(scene, Some(&next2), &light[i]);
+        }
+        (light, camera)
+    }
+
+    /// Veach's condition for unbiased MIS: the weights of all strategies that can produce a path sum
+    /// to one. Checked on camera paths that end on the light, in the Cornell box (all diffuse) and
+    /// the caustic scene (delta vertices, whose connections are impossible strategies).
+    #[test]
+    fn weights_of_all_strategies_sum_to_one() {
+        for name in ["cornell-box.ron", "caustic-sphere.ron"] {
+            let scene = scene(name);
+            let bdpt = Bdpt::new(BdptConfig {
+                max_bounces: Some(6),
+                min_bounces: 0,
+                russian_roulette: None,
+                sampler: Default::default(),
+            });
+            let mut counters = Counters::default();
+            let mut checked = 0;
+            for pixel in 0..200_000u64 {
+                let mut sampler = Independent::new();
+                sampler.start_pixel_sample(7, pixel, 0);
+                let film = Vec2::new(
+                    (pixel % 256) as f32 + 0.5,
+                    ((pixel / 256) % 256) as f32 + 0.5,
+                );
+                let mut z = Vec::new();
+                bdpt.camera_subpath(&scene, film, &mut sampler, 8, &mut z, &mut counters);
+                let Some(last) = z.last() else { continue };
+                if z.len() < 3
+                    || last.emitter == NO_LIGHT
+                    || last.le(&scene, &z[z.len() - 2]).is_black()
+                {
+                    continue;
+                }
+                let n = z.len();
+                let mut sum = 0.0f64;
+                for s in 0..n {
+                    let t = n - s;
+                    let (light, camera) = split(&scene, &z, s);
+                    let connection_delta =
+                        (s > 0 && light[s - 1].delta) || (s > 0 && camera[t - 1].delta);
+                    if connection_delta {
+                        continue;
+                    }
+                    let sampled = if s == 1 {
+                        Some(light[0])
+                    } else if t == 1 {
+                        Some(camera[0])
+                    } else {
+                        None
+                    };
+                    sum += Bdpt::mis_weight(&scene, &light, &camera, sampled, s, t) as f64;
+                }
+                assert!(
+                    (sum - 1.0).abs() < 1e-3,
+                    "{name}: a path of {n} vertices has weights summing to {sum}"
+                );
+                checked += 1;
+                if checked == 300 {
+                    break;
+                }
+            }
+            assert!(
+                checked >= 50,
+                "{name}: only {checked} paths reached the light"
+            );
+        }
+    }
+}
