@@ -173,3 +173,53 @@ fn same_bits_on_one_and_two_threads() {
     };
     assert_eq!(on(1), on(2));
 }
+
+/// Every weighting is unbiased: the power heuristic and uniform weights over all strategies, and
+/// each single strategy alone on the paths of its length (here the first bounce, 1 scattering
+/// vertex: emitter hit by the camera path (0, 3), light sampling (1, 2), light vertex splatted
+/// through the lens (2, 1)).
+#[test]
+fn every_weighting_and_single_strategy_agrees_with_path_tracing() {
+    let text = cornell(1.0, [0.0; 3], (24, 24));
+    let cases: Vec<(String, String)> = vec![
+        (
+            "Path(max_bounces: 3)".into(),
+            "Bdpt(max_bounces: 3, mis: Power)".into(),
+        ),
+        (
+            "Path(max_bounces: 3)".into(),
+            "Bdpt(max_bounces: 3, mis: Uniform)".into(),
+        ),
+        (
+            "Path(min_bounces: 1, max_bounces: 1)".into(),
+            "Bdpt(min_bounces: 1, max_bounces: 1, mis: Only(s: 0, t: 3))".into(),
+        ),
+        (
+            "Path(min_bounces: 1, max_bounces: 1)".into(),
+            "Bdpt(min_bounces: 1, max_bounces: 1, mis: Only(s: 1, t: 2))".into(),
+        ),
+        (
+            "Path(min_bounces: 1, max_bounces: 1)".into(),
+            "Bdpt(min_bounces: 1, max_bounces: 1, mis: Only(s: 2, t: 1))".into(),
+        ),
+    ];
+    let sc = scene(&text);
+    let crit = z_critical(sidak(1e-3, (cases.len() * 4 * 3) as u64));
+    for (path, bdpt) in &cases {
+        let a = regions(&render(&sc, path, 256, 1), 2);
+        let b = regions(&render(&sc, bdpt, 256, 2), 2);
+        for (k, (a, b)) in a.iter().zip(&b).enumerate() {
+            for c in 0..3 {
+                let z = z(b.0[c], b.1[c], a.0[c], a.1[c]);
+                assert!(
+                    z.abs() < crit,
+                    "{bdpt} vs {path}, region {k}, channel {c}: {} ± {} vs {} ± {}, z = {z:.2}",
+                    b.0[c],
+                    b.1[c],
+                    a.0[c],
+                    a.1[c]
+                );
+            }
+        }
+    }
+}

@@ -22,7 +22,7 @@
 //! light point 2, lens 2). Light subpath values come from a second stream keyed by the pixel sample,
 //! so the camera dimensions keep the layout stratified samplers expect.
 
-use crate::config::BdptConfig;
+use crate::config::{BdptConfig, Mis};
 use crate::film::{Film, PixelSums};
 use crate::render::Counters;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
@@ -469,8 +469,9 @@ impl Bdpt {
         sampled: Option<Vertex>,
         s: usize,
         t: usize,
+        heuristic: Mis,
     ) -> f32 {
-        if s + t == 2 {
+        if s + t == 2 || matches!(heuristic, Mis::Only { .. }) {
             return 1.0;
         }
         let mut lv: Vec<Vertex> = light[..s].to_vec();
@@ -515,12 +516,20 @@ impl Bdpt {
             lv[s - 2].pdf_rev = qs.pdf(scene, Some(&cv[t - 1]), &qs_minus);
         }
         let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
+        // Each other strategy i enters with rᵢ = pᵢ / p_s: the balance heuristic sums rᵢ, the power
+        // heuristic (β = 2) rᵢ², uniform weights count the strategies (Veach 1997, §9.2).
+        let term = |r: f32| match heuristic {
+            Mis::Balance => r,
+            Mis::Power => r * r,
+            Mis::Uniform => 1.0,
+            Mis::Only { .. } => 0.0,
+        };
         let mut sum = 0.0f32;
         let mut ri = 1.0f32;
         for i in (1..t).rev() {
             ri *= remap(cv[i].pdf_rev) / remap(cv[i].pdf_fwd);
             if !cv[i].delta && !cv[i - 1].delta {
-                sum += ri;
+                sum += term(ri);
             }
         }
         ri = 1.0;
@@ -534,7 +543,7 @@ impl Bdpt {
                     .is_some_and(|l| scene.lights[l as usize].is_delta())
             };
             if !lv[i].delta && !delta_before {
-                sum += ri;
+                sum += term(ri);
             }
         }
         1.0 / (1.0 + sum)
@@ -645,7 +654,7 @@ impl Bdpt {
             }
             l
         };
-        let w = Self::mis_weight(scene, light, camera, sampled, s, t);
+        let w = Self::mis_weight(scene, light, camera, sampled, s, t, self.config.mis);
         Some((l * w, raster))
     }
 }
@@ -762,6 +771,7 @@ impl SamplerVisitor for RenderWith<'_> {
                                     if (s == 1 && t == 1)
                                         || depth < cfg.min_bounces as i64
                                         || depth > max_bounces as i64
+                                        || cfg.mis.excludes(s, t)
                                     {
                                         continue;
                                     }
@@ -910,13 +920,14 @@ mod tests {
     }
 
     /// Veach's condition for unbiased MIS: the weights of all strategies that can produce a path sum
-    /// to one. Checked on camera paths that end on the light, in the Cornell box (all diffuse) and
+    /// to one, for the balance and power heuristics and uniform weights. Checked on camera paths that end on the light, in the Cornell box (all diffuse) and
     /// the caustic scene (delta vertices, whose connections are impossible strategies).
     #[test]
     fn weights_of_all_strategies_sum_to_one() {
         for name in ["cornell-box.ron", "caustic-sphere.ron"] {
             let scene = scene(name);
             let bdpt = Bdpt::new(BdptConfig {
+                mis: Mis::Balance,
                 max_bounces: Some(6),
                 min_bounces: 0,
                 russian_roulette: None,
@@ -941,28 +952,31 @@ mod tests {
                     continue;
                 }
                 let n = z.len();
-                let mut sum = 0.0f64;
-                for s in 0..n {
-                    let t = n - s;
-                    let (light, camera) = split(&scene, &z, s);
-                    let connection_delta =
-                        (s > 0 && light[s - 1].delta) || (s > 0 && camera[t - 1].delta);
-                    if connection_delta {
-                        continue;
+                for heuristic in [Mis::Balance, Mis::Power, Mis::Uniform] {
+                    let mut sum = 0.0f64;
+                    for s in 0..n {
+                        let t = n - s;
+                        let (light, camera) = split(&scene, &z, s);
+                        let connection_delta =
+                            (s > 0 && light[s - 1].delta) || (s > 0 && camera[t - 1].delta);
+                        if connection_delta {
+                            continue;
+                        }
+                        let sampled = if s == 1 {
+                            Some(light[0])
+                        } else if t == 1 {
+                            Some(camera[0])
+                        } else {
+                            None
+                        };
+                        sum += Bdpt::mis_weight(&scene, &light, &camera, sampled, s, t, heuristic)
+                            as f64;
                     }
-                    let sampled = if s == 1 {
-                        Some(light[0])
-                    } else if t == 1 {
-                        Some(camera[0])
-                    } else {
-                        None
-                    };
-                    sum += Bdpt::mis_weight(&scene, &light, &camera, sampled, s, t) as f64;
+                    assert!(
+                        (sum - 1.0).abs() < 1e-3,
+                        "{name}, {heuristic:?}: a path of {n} vertices has weights summing to {sum}"
+                    );
                 }
-                assert!(
-                    (sum - 1.0).abs() < 1e-3,
-                    "{name}: a path of {n} vertices has weights summing to {sum}"
-                );
                 checked += 1;
                 if checked == 300 {
                     break;

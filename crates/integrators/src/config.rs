@@ -33,6 +33,29 @@ pub struct BdptConfig {
     pub min_bounces: u32,
     pub russian_roulette: Option<u32>,
     pub sampler: SamplerConfig,
+    pub mis: Mis,
+}
+
+/// How bidirectional path tracing weights its strategies (Veach 1997, ch. 9).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Mis {
+    /// wᵢ = pᵢ / Σⱼ pⱼ (Veach's balance heuristic).
+    #[default]
+    Balance,
+    /// wᵢ = pᵢ² / Σⱼ pⱼ² (the power heuristic with β = 2).
+    Power,
+    /// wᵢ = 1 / (number of strategies that can produce the path): unweighted averaging.
+    Uniform,
+    /// No MIS: only strategy (s, t), with weight 1 — the paths of s + t − 2 bounces that this one
+    /// strategy samples, for looking at one technique alone.
+    Only { s: u32, t: u32 },
+}
+
+impl Mis {
+    /// Whether strategy (s, t) is left out entirely.
+    pub fn excludes(&self, s: usize, t: usize) -> bool {
+        matches!(*self, Mis::Only { s: os, t: ot } if (os as usize, ot as usize) != (s, t))
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -52,17 +75,28 @@ pub struct BdptConfigRaw {
     /// `Independent`.
     #[serde(default)]
     pub sampler: SamplerConfig,
+    /// Strategy weights: `Balance`, `Power`, `Uniform` or `Only(s: S, t: T)`. Default `Balance`.
+    #[serde(default)]
+    pub mis: Mis,
 }
 
 impl TryFrom<BdptConfigRaw> for BdptConfig {
     type Error = String;
     fn try_from(r: BdptConfigRaw) -> Result<Self, String> {
         check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
+        if let Mis::Only { s, t } = r.mis
+            && t == 0
+        {
+            return Err(format!(
+                "Only(s: {s}, t: 0) is not a strategy: paths must reach the camera, so t ≥ 1"
+            ));
+        }
         Ok(BdptConfig {
             max_bounces: r.max_bounces,
             min_bounces: r.min_bounces,
             russian_roulette: r.russian_roulette,
             sampler: r.sampler,
+            mis: r.mis,
         })
     }
 }
@@ -74,6 +108,7 @@ impl From<BdptConfig> for BdptConfigRaw {
             min_bounces: c.min_bounces,
             russian_roulette: c.russian_roulette,
             sampler: c.sampler,
+            mis: c.mis,
         }
     }
 }

@@ -13,7 +13,7 @@ pub mod light;
 pub mod path;
 mod render;
 
-pub use config::{BdptConfig, IntegratorConfig, LightConfig, Strategy};
+pub use config::{BdptConfig, IntegratorConfig, LightConfig, Mis, Strategy};
 pub use film::{Film, PixelSums};
 pub use render::{Budget, RenderOutput, RenderStats};
 
