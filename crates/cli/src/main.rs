@@ -1,5 +1,6 @@
 //! `lightlab`: render scenes with a chosen light-transport integrator and run experiments.
 
+mod experiment;
 mod progress;
 mod render;
 
@@ -7,8 +8,9 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 /// Lightlab: a light-transport research testbed. Renders RON scenes with path tracing and other
-/// global-illumination methods, and writes OpenEXR images with their variance, PNG previews and
-/// statistics.
+/// global-illumination methods, writes OpenEXR images with their variance, PNG previews and
+/// statistics, and runs experiments that sweep methods and settings against a reference and report
+/// error, bias, variance, time and efficiency.
 #[derive(Parser)]
 #[command(name = "lightlab", version, about, long_about = None)]
 struct Cli {
@@ -19,12 +21,20 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     Render(render::RenderArgs),
+    Run(experiment::RunArgs),
+    Plot(experiment::PlotArgs),
+    Merge(experiment::MergeArgs),
+    Convergence(experiment::ConvergenceArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render::run(args),
+        Command::Run(args) => experiment::run(args),
+        Command::Plot(args) => experiment::plot(args),
+        Command::Merge(args) => experiment::merge_shards(args),
+        Command::Convergence(args) => experiment::convergence(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

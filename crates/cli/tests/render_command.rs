@@ -119,7 +119,13 @@ fn bad_input_is_an_error_not_a_panic() {
 
 #[test]
 fn every_command_has_help() {
-    for args in [vec!["--help"], vec!["render", "--help"]] {
+    for args in [
+        vec!["--help"],
+        vec!["render", "--help"],
+        vec!["run", "--help"],
+        vec!["plot", "--help"],
+        vec!["merge", "--help"],
+    ] {
         let out = lightlab().args(&args).output().unwrap();
         assert!(out.status.success());
         assert!(

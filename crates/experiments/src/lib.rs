@@ -1,5 +1,15 @@
-//! Everything that touches files: image input/output (OpenEXR, PNG previews) and atomic writes.
-//! The experiment runner (sweeps, references, metrics, plots) grows here.
+//! Experiments and everything that touches files: the samplers' convergence study ([`convergence`]); experiment files and their expansion into runs
+//! ([`desc`], [`plan`]), cached references ([`reference`]), error metrics ([`metrics`]), the
+//! resumable, shardable runner ([`runner`]), tables and plots ([`report`], [`plot`]), image
+//! input/output (OpenEXR, PNG previews) and atomic writes.
 
 pub mod atomic;
+pub mod convergence;
+pub mod desc;
 pub mod image_io;
+pub mod metrics;
+pub mod plan;
+pub mod plot;
+pub mod reference;
+pub mod report;
+pub mod runner;

@@ -1,0 +1,212 @@
+//! `lightlab run`, `lightlab plot` and `lightlab merge`: experiments from the command line.
+
+use crate::progress::Bar;
+use clap::Args;
+use indicatif::MultiProgress;
+use lightlab_experiments::desc::load_experiment;
+use lightlab_experiments::report::plot_from_csv;
+use lightlab_experiments::runner::{RunOptions, merge, output_dir, run_experiment};
+use std::path::PathBuf;
+
+/// Run an experiment (a RON sweep file, see experiments/README.md): render every run that has not
+/// finished yet, compare it with the cached reference, and write runs.csv, summary.json, SVG plots
+/// and per-run images under RESULTS/<name>/. Interrupted runs resume where they stopped.
+#[derive(Args)]
+pub struct RunArgs {
+    /// Experiment file (RON).
+    experiment: PathBuf,
+    /// Root directory of results (the experiment writes RESULTS/<name>/, references are cached in
+    /// RESULTS/references/).
+    #[arg(long, default_value = "results")]
+    results: PathBuf,
+    /// Run only shard I of N (1-based, e.g. 3/8): the runs with index mod N = I − 1. Shards share
+    /// nothing but the results directory; `lightlab merge` combines shards written elsewhere.
+    #[arg(long, value_parser = parse_shard)]
+    shard: Option<(u32, u32)>,
+    /// Worker threads (≥ 1). Default: all cores.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    threads: Option<u32>,
+}
+
+fn parse_shard(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("'{s}' is not a shard: write I/N with 1 ≤ I ≤ N, e.g. 2/4");
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let (i, n): (u32, u32) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if i == 0 || n == 0 || i > n {
+        return Err(bad());
+    }
+    Ok((i - 1, n))
+}
+
+pub fn run(args: RunArgs) -> Result<(), String> {
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = args.threads {
+        pool = pool.num_threads(t as usize);
+    }
+    let pool = pool
+        .build()
+        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    let bars = MultiProgress::new();
+    let overall = Bar::new("runs");
+    let per_run = Bar::new("run ");
+    let overall_bar = bars.add(overall.0.clone());
+    let run_bar = bars.add(per_run.0.clone());
+    let log = |m: &str| bars.println(m).unwrap_or(());
+    let options = RunOptions {
+        results: args.results,
+        shard: args.shard,
+    };
+    let outcome =
+        pool.install(|| run_experiment(&args.experiment, &options, &overall, &per_run, &log))?;
+    overall_bar.finish_and_clear();
+    run_bar.finish_and_clear();
+    for w in &outcome.warnings {
+        eprintln!("warning: {w}");
+    }
+    println!(
+        "{} runs in the experiment{}; {} rendered now, {} already finished",
+        outcome.total,
+        args.shard
+            .map_or(String::new(), |(i, n)| format!(" (shard {}/{n})", i + 1)),
+        outcome.ran,
+        outcome.skipped
+    );
+    println!(
+        "results in {}: runs.csv, summary.json, *.svg, runs/",
+        outcome.out_dir.display()
+    );
+    Ok(())
+}
+
+/// Redraw an experiment's SVG plots from its runs.csv, without rendering anything.
+#[derive(Args)]
+pub struct PlotArgs {
+    /// The experiment's results directory (RESULTS/<name>/, holding runs.csv).
+    dir: PathBuf,
+}
+
+pub fn plot(args: PlotArgs) -> Result<(), String> {
+    let files = plot_from_csv(&args.dir).map_err(|e| e.to_string())?;
+    println!(
+        "wrote {} plots in {}: {}",
+        files.len(),
+        args.dir.display(),
+        files.join(", ")
+    );
+    Ok(())
+}
+
+/// Combine the results of shards run with separate results directories (e.g. on several machines)
+/// into RESULTS/<name>/ and rewrite its tables and plots.
+#[derive(Args)]
+pub struct MergeArgs {
+    /// The experiment file the shards ran.
+    experiment: PathBuf,
+    /// The shards' experiment directories (each SHARD_RESULTS/<name>/).
+    #[arg(required = true)]
+    shards: Vec<PathBuf>,
+    /// Root directory of the merged results.
+    #[arg(long, default_value = "results")]
+    results: PathBuf,
+}
+
+pub fn merge_shards(args: MergeArgs) -> Result<(), String> {
+    let desc = load_experiment(&args.experiment).map_err(|e| e.to_string())?;
+    let out = output_dir(&desc, &args.results);
+    let copied = merge(&out, &args.shards)?;
+    println!("merged {copied} runs into {}", out.display());
+    Ok(())
+}
+
+/// Measure how fast each sampler converges: integrate analytic 2D test functions (Gaussian, disk,
+/// step, oblique edge, checkerboard) with every sampler at 1, 2, 4, … samples over independent
+/// seeds, and write the MSE per sample count (convergence.csv), the fitted log–log slopes with 95 %
+/// intervals (rates.json) and one SVG plot per function to RESULTS/convergence/.
+#[derive(Args)]
+pub struct ConvergenceArgs {
+    /// Largest sample count (a power of two is reached exactly).
+    #[arg(long, default_value_t = 4096, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
+    max_spp: u32,
+    /// Independent seeds per sample count (≥ 2).
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(2..))]
+    seeds: u32,
+    /// Smallest sample count in the slope fit (rates are asymptotic).
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    fit_from: u32,
+    /// Root directory of results.
+    #[arg(long, default_value = "results")]
+    results: PathBuf,
+}
+
+pub fn convergence(args: ConvergenceArgs) -> Result<(), String> {
+    use lightlab_experiments::atomic::write_atomic;
+    use lightlab_experiments::convergence::{FUNCTIONS, Study, plot, run};
+    let study = Study {
+        max_spp: args.max_spp,
+        seeds: args.seeds,
+        fit_from: args.fit_from,
+    };
+    let bar = Bar::new("functions × samplers");
+    let (points, rates) = run(&study, &bar);
+    bar.0.finish_and_clear();
+    let dir = args.results.join("convergence");
+    let io = |e: std::io::Error| format!("{}: {e}", dir.display());
+    let mut csv = String::from("function,sampler,spp,mse,mse_se\n");
+    for p in &points {
+        csv += &format!(
+            "{},{},{},{:e},{:e}\n",
+            p.function, p.sampler, p.spp, p.mse, p.mse_se
+        );
+    }
+    write_atomic(&dir.join("convergence.csv"), csv.as_bytes()).map_err(io)?;
+    let json = serde_json::json!({
+        "max_spp": study.max_spp, "seeds": study.seeds, "fit_from": study.fit_from,
+        "fit": "least squares of ln MSE on ln spp over spp ≥ fit_from; slope_ci95 is the half-width of the 95 % interval",
+        "rates": rates,
+    });
+    write_atomic(
+        &dir.join("rates.json"),
+        serde_json::to_string_pretty(&json)
+            .expect("json")
+            .as_bytes(),
+    )
+    .map_err(io)?;
+    for f in &FUNCTIONS {
+        let svg = lightlab_experiments::plot::render_svg(&plot(f.name, &points, &rates))?;
+        write_atomic(&dir.join(format!("{}.svg", f.name)), svg.as_bytes()).map_err(io)?;
+    }
+    println!(
+        "log–log slope of MSE against samples (spp {}…{}, {} seeds), ± 95 % interval:",
+        study.fit_from, study.max_spp, study.seeds
+    );
+    print!("{:<15}", "function");
+    let samplers = lightlab_samplers::SamplerConfig::ALL;
+    for s in samplers {
+        print!("{:>18}", s.name());
+    }
+    println!();
+    for f in &FUNCTIONS {
+        print!("{:<15}", f.name);
+        for s in samplers {
+            match rates
+                .iter()
+                .find(|r| r.function == f.name && r.sampler == s.name())
+            {
+                Some(r) => print!(
+                    "{:>18}",
+                    format!("{:.2} ± {:.2}", r.fit.slope, r.fit.slope_ci95)
+                ),
+                None => print!("{:>18}", "—"),
+            }
+        }
+        println!();
+    }
+    println!(
+        "wrote {}: convergence.csv, rates.json, one SVG per function",
+        dir.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,415 @@
+//! Experiment files (`experiments/*.ron`): which scenes, which methods with which settings, which
+//! sweep, how many independent trials, and the reference every run is compared with. Every field is
+//! documented here and in `experiments/README.md`; unknown fields are errors with file, line and column.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// One experiment.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Experiment")]
+pub struct ExperimentDesc {
+    /// Output directory name: results go to `results/<name>/`. Letters, digits, `-` and `_`.
+    pub name: String,
+    /// Scene files, relative to the experiment file. At least one.
+    pub scenes: Vec<PathBuf>,
+    /// Overrides every scene's image size (the field of view along the smaller axis is kept), so
+    /// sweeps of many runs stay cheap. Default: each scene's own resolution.
+    #[serde(default)]
+    pub resolution: Option<(u32, u32)>,
+    /// What every run is compared with.
+    pub reference: ReferenceDesc,
+    /// The methods compared. At least one; labels must be unique.
+    pub methods: Vec<MethodDesc>,
+    /// Axes swept for every method; the runs are the Cartesian product of all axes. A method
+    /// setting named by an axis is overridden by it. Default: no axis (one setting).
+    #[serde(default)]
+    pub sweep: Vec<Axis>,
+    /// Budget of a run when no axis sets `spp` or `seconds`. Default: `Samples(16)`.
+    #[serde(default)]
+    pub budget: BudgetDesc,
+    /// Independent repetitions of every setting (distinct seeds). Default 4, at least 2 so that
+    /// variance across trials is defined.
+    #[serde(default = "default_trials")]
+    pub trials: u32,
+    /// Base seed: trial t of run setting s uses a seed derived from (seed, scene, method, setting, t).
+    /// Default 0.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+fn default_trials() -> u32 {
+    4
+}
+
+/// The reference image.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ReferenceDesc {
+    /// Rendered once with this integrator (RON text, as `lightlab render --integrator`) at `spp`
+    /// samples per pixel and cached under `results/references/` by a hash of the scene text,
+    /// resolution, these settings and the Lightlab version.
+    Render { integrator: String, spp: u32 },
+    /// Loaded from an EXR with layers `radiance` and (optional) `variance`, relative to the
+    /// experiment file. Its size must match the runs'.
+    Exr { path: PathBuf },
+}
+
+/// A method: an integrator and its settings.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Method")]
+pub struct MethodDesc {
+    /// Name in tables and plot legends.
+    pub label: String,
+    /// Integrator name, e.g. `"Path"`.
+    pub integrator: String,
+    /// Integrator fields, e.g. `{"max_bounces": 8, "strategy": "Mis"}`. Numbers are written as
+    /// numbers; strings are inserted verbatim as RON, so `"Mis"` or `"None"` name enum values.
+    #[serde(default)]
+    pub settings: BTreeMap<String, Value>,
+}
+
+/// A setting's value.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Value {
+    Int(i64),
+    Float(f64),
+    /// RON text inserted verbatim (an enum variant such as `Mis`, or `None`).
+    Text(String),
+}
+
+impl Value {
+    /// The value as RON text.
+    pub fn ron(&self) -> String {
+        match self {
+            Value::Int(i) => i.to_string(),
+            Value::Float(f) => format!("{f:?}"),
+            Value::Text(t) => t.clone(),
+        }
+    }
+}
+
+/// One sweep axis. The field `spp` sweeps the sample budget, `seconds` the time budget (equal-time
+/// comparisons); any other name is an integrator field.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Axis {
+    /// An explicit list of values.
+    Values { field: String, values: Vec<Value> },
+    /// Geometric progression `from, from·factor, …` up to and including `to` (integers are rounded
+    /// and deduplicated when `from` and `to` are integers).
+    LogRange {
+        field: String,
+        from: f64,
+        to: f64,
+        factor: f64,
+    },
+}
+
+/// How long a run may work.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum BudgetDesc {
+    /// Samples per pixel.
+    Samples(u32),
+    /// Wall-clock seconds: one-sample-per-pixel passes are rendered and averaged until the time is
+    /// used up (at least one pass), for equal-time comparisons.
+    Seconds(f64),
+}
+
+impl Default for BudgetDesc {
+    fn default() -> Self {
+        BudgetDesc::Samples(16)
+    }
+}
+
+/// An experiment file that failed to load: the message names file, line and column.
+#[derive(Debug)]
+pub struct ExperimentError(pub String);
+
+impl std::fmt::Display for ExperimentError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ExperimentError {}
+
+/// Reads and checks an experiment file.
+pub fn load_experiment(path: &Path) -> Result<ExperimentDesc, ExperimentError> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        ExperimentError(format!(
+            "{}: cannot read experiment file: {e}",
+            path.display()
+        ))
+    })?;
+    parse_experiment(&text, path)
+}
+
+/// Parses and checks experiment text; `path` names it in errors.
+pub fn parse_experiment(text: &str, path: &Path) -> Result<ExperimentDesc, ExperimentError> {
+    let options =
+        ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+    let desc: ExperimentDesc = options.from_str(text).map_err(|e| {
+        ExperimentError(format!(
+            "{}:{}:{}: {}",
+            path.display(),
+            e.span.start.line,
+            e.span.start.col,
+            e.code
+        ))
+    })?;
+    desc.check().map_err(|(needle, message)| {
+        let (line, col) = locate(text, &needle);
+        ExperimentError(format!("{}:{line}:{col}: {message}", path.display()))
+    })?;
+    Ok(desc)
+}
+
+/// Line and column (1-based) of the first occurrence of `needle`, or of the start.
+fn locate(text: &str, needle: &str) -> (usize, usize) {
+    let at = text.find(needle).unwrap_or(0);
+    let line = text[..at].matches('\n').count() + 1;
+    let col = at - text[..at].rfind('\n').map_or(0, |i| i + 1) + 1;
+    (line, col)
+}
+
+impl ExperimentDesc {
+    /// Semantic checks; on failure returns (text to locate, message).
+    fn check(&self) -> Result<(), (String, String)> {
+        let err = |needle: &str, m: String| Err((needle.to_string(), m));
+        if self.name.is_empty()
+            || !self
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return err(
+                "name",
+                format!(
+                    "name must be non-empty letters, digits, '-' or '_', got {:?}",
+                    self.name
+                ),
+            );
+        }
+        if self.scenes.is_empty() {
+            return err("scenes", "scenes must list at least one scene file".into());
+        }
+        if let Some((w, h)) = self.resolution
+            && (w == 0 || h == 0 || w > 16384 || h > 16384)
+        {
+            return err(
+                "resolution",
+                format!("resolution must be 1…16384 in each axis, got ({w}, {h})"),
+            );
+        }
+        match &self.reference {
+            ReferenceDesc::Render { spp, .. } if *spp == 0 => {
+                return err("reference", "reference spp must be ≥ 1".into());
+            }
+            _ => {}
+        }
+        if self.methods.is_empty() {
+            return err("methods", "methods must list at least one method".into());
+        }
+        for (i, m) in self.methods.iter().enumerate() {
+            if self.methods[..i].iter().any(|o| o.label == m.label) {
+                return err(
+                    &format!("\"{}\"", m.label),
+                    format!("method label {:?} is used twice", m.label),
+                );
+            }
+        }
+        if self.trials < 2 {
+            return err(
+                "trials",
+                format!(
+                    "trials must be ≥ 2 (variance across trials needs two), got {}",
+                    self.trials
+                ),
+            );
+        }
+        check_budget(&self.budget).or_else(|m| err("budget", m))?;
+        for a in &self.sweep {
+            match a {
+                Axis::Values { field, values } if values.is_empty() => {
+                    return err(
+                        &format!("\"{field}\""),
+                        format!("axis {field:?} has no values"),
+                    );
+                }
+                Axis::LogRange {
+                    field,
+                    from,
+                    to,
+                    factor,
+                } if !(*from > 0.0 && to >= from && *factor > 1.0 && to.is_finite()) => {
+                    return err(
+                        &format!("\"{field}\""),
+                        format!(
+                            "LogRange {field:?} needs 0 < from ≤ to and factor > 1, got from {from}, to {to}, factor {factor}"
+                        ),
+                    );
+                }
+                _ => {}
+            }
+            for v in a.values() {
+                let budget = match (a.field(), &v) {
+                    ("spp", Value::Int(n)) if *n >= 1 && *n <= u32::MAX as i64 => {
+                        Some(BudgetDesc::Samples(*n as u32))
+                    }
+                    ("seconds", Value::Int(n)) => Some(BudgetDesc::Seconds(*n as f64)),
+                    ("seconds", Value::Float(s)) => Some(BudgetDesc::Seconds(*s)),
+                    ("spp" | "seconds", v) => {
+                        return err(
+                            &format!("\"{}\"", a.field()),
+                            format!(
+                                "axis {:?}: {v:?} is not a valid budget (spp: integers ≥ 1; seconds: numbers > 0)",
+                                a.field()
+                            ),
+                        );
+                    }
+                    _ => None,
+                };
+                if let Some(b) = budget {
+                    check_budget(&b).or_else(|m| err(&format!("\"{}\"", a.field()), m))?;
+                }
+            }
+        }
+        let budget_axes = self
+            .sweep
+            .iter()
+            .filter(|a| matches!(a.field(), "spp" | "seconds"))
+            .count();
+        if budget_axes > 1 {
+            return err(
+                "sweep",
+                "at most one budget axis (spp or seconds) per experiment".into(),
+            );
+        }
+        Ok(())
+    }
+}
+
+fn check_budget(b: &BudgetDesc) -> Result<(), String> {
+    match *b {
+        BudgetDesc::Samples(0) => Err("a sample budget must be ≥ 1 sample per pixel".into()),
+        BudgetDesc::Seconds(s) if !(s > 0.0 && s.is_finite()) => {
+            Err(format!("a time budget must be > 0 seconds, got {s}"))
+        }
+        _ => Ok(()),
+    }
+}
+
+impl Axis {
+    pub fn field(&self) -> &str {
+        match self {
+            Axis::Values { field, .. } | Axis::LogRange { field, .. } => field,
+        }
+    }
+
+    /// The axis' values in order.
+    pub fn values(&self) -> Vec<Value> {
+        match self {
+            Axis::Values { values, .. } => values.clone(),
+            &Axis::LogRange {
+                from, to, factor, ..
+            } => {
+                let integer = from.fract() == 0.0 && to.fract() == 0.0;
+                let mut out: Vec<Value> = Vec::new();
+                let mut x = from;
+                // Relative slack so that e.g. 1·2¹² still counts as ≤ 4096 after rounding.
+                while x <= to * (1.0 + 1e-9) && out.len() < 10_000 {
+                    let v = if integer {
+                        Value::Int(x.round() as i64)
+                    } else {
+                        Value::Float(x)
+                    };
+                    if out.last() != Some(&v) {
+                        out.push(v);
+                    }
+                    x *= factor;
+                }
+                out
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"Experiment(
+        name: "t",
+        scenes: ["../scenes/furnace.ron"],
+        reference: Render(integrator: "Path()", spp: 64),
+        methods: [
+            (label: "mis", integrator: "Path", settings: {"strategy": "Mis", "max_bounces": 3}),
+            (label: "bsdf", integrator: "Path", settings: {"strategy": "BsdfOnly"}),
+        ],
+        sweep: [LogRange(field: "spp", from: 1, to: 64, factor: 4)],
+        trials: 3,
+    )"#;
+
+    #[test]
+    fn parses_with_defaults() {
+        let d = parse_experiment(GOOD, Path::new("e.ron")).unwrap();
+        assert_eq!(d.trials, 3);
+        assert_eq!(d.seed, 0);
+        assert_eq!(d.budget, BudgetDesc::Samples(16));
+        assert_eq!(
+            d.sweep[0].values(),
+            vec![Value::Int(1), Value::Int(4), Value::Int(16), Value::Int(64)]
+        );
+        assert_eq!(d.methods[0].settings["max_bounces"], Value::Int(3));
+    }
+
+    #[test]
+    fn errors_name_file_line_and_column() {
+        let cases = [
+            (
+                GOOD.replace("trials: 3", "trails: 3"),
+                "e.ron:10:",
+                "trails",
+            ),
+            (
+                GOOD.replace("trials: 3", "trials: 1"),
+                "e.ron:10:",
+                "trials must be ≥ 2",
+            ),
+            (
+                GOOD.replace("label: \"bsdf\"", "label: \"mis\""),
+                "e.ron:6:",
+                "used twice",
+            ),
+            (
+                GOOD.replace("factor: 4", "factor: 1"),
+                "e.ron:9:",
+                "factor > 1",
+            ),
+            (
+                GOOD.replace("spp: 64)", "spp: 0)"),
+                "e.ron:4:",
+                "reference spp",
+            ),
+            (
+                GOOD.replace(
+                    "LogRange(field: \"spp\", from: 1, to: 64, factor: 4)",
+                    "Values(field: \"spp\", values: [0])",
+                ),
+                "e.ron:9:",
+                "not a valid budget",
+            ),
+        ];
+        for (text, at, words) in cases {
+            let e = parse_experiment(&text, Path::new("e.ron")).unwrap_err().0;
+            assert!(
+                e.starts_with(at) && e.contains(words),
+                "expected {at} … {words}: {e}"
+            );
+        }
+    }
+}

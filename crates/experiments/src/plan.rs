@@ -1,0 +1,219 @@
+//! Expansion of an experiment into fully resolved runs: scene × method × setting × trial, each with
+//! its integrator settings as canonical RON, its budget, its seed and a stable id (a hash of all of
+//! these), so that a resumed or sharded sweep names every run the same way.
+
+use crate::desc::{BudgetDesc, ExperimentDesc, ExperimentError, Value};
+use lightlab_integrators::IntegratorConfig;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// One run of an experiment, everything resolved.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RunSpec {
+    /// Position in the expansion order (shards take `index % n == i`).
+    pub index: usize,
+    /// Directory name under `runs/`: scene, method and a hash of the resolved run.
+    pub id: String,
+    pub scene: PathBuf,
+    /// The scene file's stem, used in tables.
+    pub scene_name: String,
+    pub method: String,
+    /// The integrator with every field resolved, as RON.
+    pub integrator: String,
+    /// The swept values of this run, as `field=value` joined by `, ` (empty without a sweep).
+    pub setting: String,
+    pub budget: BudgetDesc,
+    pub trial: u32,
+    pub seed: u64,
+}
+
+/// 64-bit FNV-1a: a stable hash for run ids, seeds and reference cache keys (not for security).
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+fn sanitize(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// All runs of `desc` (loaded from `path`) in a fixed order: scenes, then methods, then settings
+/// (the first axis varying slowest), then trials.
+pub fn expand(desc: &ExperimentDesc, path: &Path) -> Result<Vec<RunSpec>, ExperimentError> {
+    let base = path.parent().unwrap_or(Path::new("."));
+    // Cartesian product of the axes.
+    let mut settings: Vec<Vec<(String, Value)>> = vec![Vec::new()];
+    for axis in &desc.sweep {
+        let values = axis.values();
+        settings = settings
+            .into_iter()
+            .flat_map(|s| {
+                values
+                    .iter()
+                    .map(move |v| [s.clone(), vec![(axis.field().to_string(), v.clone())]].concat())
+            })
+            .collect();
+    }
+    let mut runs = Vec::new();
+    for scene in &desc.scenes {
+        let scene_path = base.join(scene);
+        let scene_name = scene_path
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        for method in &desc.methods {
+            for setting in &settings {
+                let mut fields = method.settings.clone();
+                let mut budget = desc.budget;
+                for (field, value) in setting {
+                    match (field.as_str(), value) {
+                        ("spp", Value::Int(n)) => budget = BudgetDesc::Samples(*n as u32),
+                        ("seconds", Value::Int(n)) => budget = BudgetDesc::Seconds(*n as f64),
+                        ("seconds", Value::Float(s)) => budget = BudgetDesc::Seconds(*s),
+                        _ => {
+                            fields.insert(field.clone(), value.clone());
+                        }
+                    }
+                }
+                let text = format!(
+                    "{}({})",
+                    method.integrator,
+                    fields
+                        .iter()
+                        .map(|(k, v)| format!("{k}: {}", v.ron()))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+                let config = IntegratorConfig::from_ron(&text).map_err(|e| {
+                    ExperimentError(format!(
+                        "{}: method {:?}: integrator {text}: {e}",
+                        path.display(),
+                        method.label
+                    ))
+                })?;
+                let integrator = config.to_ron();
+                let setting_text = setting
+                    .iter()
+                    .map(|(k, v)| format!("{k}={}", v.ron()))
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                for trial in 0..desc.trials {
+                    let key = format!(
+                        "{}|{scene_name}|{}|{integrator}|{budget:?}|{trial}",
+                        desc.seed, method.label
+                    );
+                    let seed = fnv1a(key.as_bytes());
+                    let id = format!(
+                        "{}-{}-{:016x}",
+                        sanitize(&scene_name),
+                        sanitize(&method.label),
+                        fnv1a(format!("{key}|{seed}").as_bytes())
+                    );
+                    runs.push(RunSpec {
+                        index: runs.len(),
+                        id,
+                        scene: scene_path.clone(),
+                        scene_name: scene_name.clone(),
+                        method: method.label.clone(),
+                        integrator: integrator.clone(),
+                        setting: setting_text.clone(),
+                        budget,
+                        trial,
+                        seed,
+                    });
+                }
+            }
+        }
+    }
+    Ok(runs)
+}
+
+/// The runs of shard `i` of `n` (0-based): those with `index % n == i`.
+pub fn shard(runs: Vec<RunSpec>, i: u32, n: u32) -> Vec<RunSpec> {
+    runs.into_iter()
+        .filter(|r| r.index % n as usize == i as usize)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::desc::parse_experiment;
+
+    fn desc(sweep: &str) -> ExperimentDesc {
+        let text = format!(
+            r#"Experiment(name: "t", scenes: ["a.ron", "b.ron"], reference: Render(integrator: "Path()", spp: 8),
+               methods: [(label: "pt", integrator: "Path", settings: {{"max_bounces": 2}}),
+                         (label: "bsdf", integrator: "Path", settings: {{"strategy": "BsdfOnly"}})],
+               sweep: [{sweep}], trials: 3)"#
+        );
+        parse_experiment(&text, Path::new("exp/e.ron")).unwrap()
+    }
+
+    #[test]
+    fn cartesian_product_with_resolved_values() {
+        let d = desc(
+            r#"Values(field: "spp", values: [1, 4]), Values(field: "max_bounces", values: [0, 5, "None"])"#,
+        );
+        let runs = expand(&d, Path::new("exp/e.ron")).unwrap();
+        assert_eq!(runs.len(), 2 * 2 * 2 * 3 * 3);
+        assert!(runs.iter().enumerate().all(|(i, r)| r.index == i));
+        let r = &runs[3 * 4 + 1]; // scene a, method pt, setting 4 = (spp 4, max_bounces 5), trial 1
+        assert_eq!(r.scene, Path::new("exp/a.ron"));
+        assert_eq!(r.setting, "spp=4, max_bounces=5");
+        assert_eq!(r.budget, BudgetDesc::Samples(4));
+        assert!(
+            r.integrator.starts_with("Path(max_bounces: 5,"),
+            "{}",
+            r.integrator
+        );
+        assert_eq!(r.trial, 1);
+        // The axis overrides the method's own setting; unswept fields keep the method's values.
+        let bsdf = runs
+            .iter()
+            .find(|r| r.method == "bsdf" && r.setting == "spp=1, max_bounces=None")
+            .unwrap();
+        assert!(
+            bsdf.integrator.contains("max_bounces: None")
+                && bsdf.integrator.contains("strategy: BsdfOnly")
+        );
+        // Ids and seeds are distinct, and stable across expansions.
+        let ids: std::collections::HashSet<_> = runs.iter().map(|r| r.id.clone()).collect();
+        let seeds: std::collections::HashSet<_> = runs.iter().map(|r| r.seed).collect();
+        assert_eq!((ids.len(), seeds.len()), (runs.len(), runs.len()));
+        assert_eq!(runs, expand(&d, Path::new("exp/e.ron")).unwrap());
+    }
+
+    #[test]
+    fn bad_settings_name_the_method() {
+        let d = desc(r#"Values(field: "max_bounce", values: [1])"#);
+        let e = expand(&d, Path::new("exp/e.ron")).unwrap_err().0;
+        assert!(
+            e.contains("exp/e.ron") && e.contains("\"pt\"") && e.contains("max_bounce"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn shards_partition_the_runs() {
+        let runs = expand(
+            &desc(r#"LogRange(field: "spp", from: 1, to: 16, factor: 2)"#),
+            Path::new("e.ron"),
+        )
+        .unwrap();
+        let mut all: Vec<usize> = (0..3)
+            .flat_map(|i| shard(runs.clone(), i, 3))
+            .map(|r| r.index)
+            .collect();
+        all.sort();
+        assert_eq!(all, (0..runs.len()).collect::<Vec<_>>());
+    }
+}

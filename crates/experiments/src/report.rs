@@ -1,0 +1,441 @@
+//! Tables and plots of an experiment, rebuilt from its finished runs: `runs.csv` (one tidy row per
+//! run and metric), `summary.json` (per setting: means over trials with standard errors, bias² and
+//! variance; per series: the fitted log–log convergence slope with its 95 % interval), the mean image
+//! of every setting (`images/`), and SVG plots per scene of MSE against samples, MSE against time,
+//! and efficiency.
+
+use crate::atomic::write_atomic;
+use crate::image_io::{RgbLayer, write_exr};
+use crate::metrics::{REL_EPSILON, bias_variance, fit_line};
+use crate::plot::{LinePlot, Series, render_svg};
+use crate::reference::load_image;
+use crate::runner::RunRecord;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::io;
+use std::path::{Path, PathBuf};
+
+/// The finished runs under `out_dir/runs/`, in expansion order.
+pub fn finished_runs(out_dir: &Path) -> io::Result<Vec<RunRecord>> {
+    let mut records = Vec::new();
+    let runs = out_dir.join("runs");
+    if !runs.is_dir() {
+        return Ok(records);
+    }
+    for entry in std::fs::read_dir(&runs)? {
+        let path = entry?.path().join("metrics.json");
+        if path.is_file() {
+            let text = std::fs::read_to_string(&path)?;
+            let r: RunRecord = serde_json::from_str(&text)
+                .map_err(|e| io::Error::other(format!("{}: {e}", path.display())))?;
+            records.push(r);
+        }
+    }
+    records.sort_by_key(|r| r.index);
+    Ok(records)
+}
+
+/// One row of `runs.csv`.
+#[derive(Clone, Debug, Serialize, serde::Deserialize, PartialEq)]
+pub struct CsvRow {
+    pub run: String,
+    pub scene: String,
+    pub method: String,
+    pub setting: String,
+    pub trial: u32,
+    pub seed: u64,
+    pub metric: String,
+    pub value: f64,
+}
+
+fn csv_rows(records: &[RunRecord]) -> Vec<CsvRow> {
+    let mut rows = Vec::new();
+    for r in records {
+        let metrics = [
+            ("spp", r.spp as f64),
+            ("wall_seconds", r.wall_seconds),
+            ("samples", r.samples as f64),
+            ("rays", r.rays as f64),
+            ("non_finite", r.non_finite as f64),
+            ("mse", r.errors.mse),
+            ("rel_mse", r.errors.rel_mse),
+            ("mae", r.errors.mae),
+            ("reference_variance", r.errors.reference_variance),
+            ("efficiency", r.efficiency),
+        ];
+        for (metric, value) in metrics {
+            rows.push(CsvRow {
+                run: r.id.clone(),
+                scene: r.scene.clone(),
+                method: r.method.clone(),
+                setting: r.setting.clone(),
+                trial: r.trial,
+                seed: r.seed,
+                metric: metric.into(),
+                value,
+            });
+        }
+    }
+    rows
+}
+
+/// The values of one run read back from `runs.csv` (what the plots need).
+#[derive(Clone, Debug, Default)]
+struct RunPoint {
+    scene: String,
+    method: String,
+    setting: String,
+    spp: f64,
+    wall_seconds: f64,
+    mse: f64,
+    efficiency: f64,
+}
+
+fn points(rows: &[CsvRow]) -> Vec<RunPoint> {
+    let mut by_run: BTreeMap<&str, RunPoint> = BTreeMap::new();
+    let mut order = Vec::new();
+    for row in rows {
+        let p = by_run.entry(&row.run).or_insert_with(|| {
+            order.push(row.run.as_str());
+            RunPoint {
+                scene: row.scene.clone(),
+                method: row.method.clone(),
+                setting: row.setting.clone(),
+                ..Default::default()
+            }
+        });
+        match row.metric.as_str() {
+            "spp" => p.spp = row.value,
+            "wall_seconds" => p.wall_seconds = row.value,
+            "mse" => p.mse = row.value,
+            "efficiency" => p.efficiency = row.value,
+            _ => {}
+        }
+    }
+    order.iter().map(|r| by_run[r].clone()).collect()
+}
+
+/// The setting without its budget (`spp=…`, `seconds=…`): runs that differ only in budget form
+/// one series of a convergence plot.
+fn series_setting(setting: &str) -> String {
+    setting
+        .split(", ")
+        .filter(|s| !s.starts_with("spp=") && !s.starts_with("seconds="))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn series_label(method: &str, setting: &str) -> String {
+    if setting.is_empty() {
+        method.to_string()
+    } else {
+        format!("{method} ({setting})")
+    }
+}
+
+fn mean_se(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let m = xs.iter().sum::<f64>() / n;
+    if xs.len() < 2 {
+        return (m, 0.0);
+    }
+    let s2 = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
+    (m, (s2 / n).sqrt())
+}
+
+#[derive(Serialize)]
+struct SettingSummary {
+    scene: String,
+    method: String,
+    setting: String,
+    trials: usize,
+    spp: f64,
+    wall_seconds: f64,
+    mse: (f64, f64),
+    rel_mse: (f64, f64),
+    mae: (f64, f64),
+    efficiency: (f64, f64),
+    bias2: Option<f64>,
+    variance: Option<f64>,
+    non_finite: u64,
+    /// Mean image over the trials (layers `radiance` and `variance` = variance of that mean).
+    image: Option<String>,
+}
+
+/// The mean over trials of `images` and the variance of that mean (sample variance / T).
+fn mean_image(images: &[&[[f32; 3]]]) -> Option<Vec<RgbLayer>> {
+    let t = images.len();
+    let n = images.first()?.len();
+    if images.iter().any(|i| i.len() != n) {
+        return None;
+    }
+    let mut mean = vec![[0.0f32; 3]; n];
+    let mut var = vec![[0.0f32; 3]; n];
+    for i in 0..n {
+        for c in 0..3 {
+            let m = images.iter().map(|x| x[i][c] as f64).sum::<f64>() / t as f64;
+            let s2 = if t > 1 {
+                images
+                    .iter()
+                    .map(|x| (x[i][c] as f64 - m).powi(2))
+                    .sum::<f64>()
+                    / (t - 1) as f64
+            } else {
+                0.0
+            };
+            mean[i][c] = m as f32;
+            var[i][c] = (s2 / t as f64) as f32;
+        }
+    }
+    Some(vec![
+        RgbLayer {
+            name: "radiance".into(),
+            pixels: mean,
+        },
+        RgbLayer {
+            name: "variance".into(),
+            pixels: var,
+        },
+    ])
+}
+
+fn sanitize(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '=' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+#[derive(Serialize)]
+struct SeriesFit {
+    scene: String,
+    series: String,
+    /// Slope of ln MSE against ln spp and the half-width of its 95 % interval.
+    slope: f64,
+    slope_ci95: f64,
+    points: usize,
+}
+
+/// Rewrites `runs.csv`, `summary.json` and the plots of `out_dir` from its finished runs.
+pub fn write_report(out_dir: &Path) -> io::Result<()> {
+    let records = finished_runs(out_dir)?;
+    let rows = csv_rows(&records);
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for row in &rows {
+        w.serialize(row).map_err(io::Error::other)?;
+    }
+    write_atomic(
+        &out_dir.join("runs.csv"),
+        &w.into_inner()
+            .map_err(|e| io::Error::other(e.to_string()))?,
+    )?;
+
+    // Per setting: means over trials, and bias/variance from the trial images.
+    let mut groups: BTreeMap<(String, String, String), Vec<&RunRecord>> = BTreeMap::new();
+    for r in &records {
+        groups
+            .entry((r.scene.clone(), r.method.clone(), r.setting.clone()))
+            .or_default()
+            .push(r);
+    }
+    let mut references: BTreeMap<PathBuf, Option<crate::metrics::Image>> = BTreeMap::new();
+    let mut settings = Vec::new();
+    for ((scene, method, setting), rs) in &groups {
+        let get = |f: fn(&RunRecord) -> f64| mean_se(&rs.iter().map(|r| f(r)).collect::<Vec<_>>());
+        let reference = references
+            .entry(rs[0].reference.clone())
+            .or_insert_with(|| load_image(&rs[0].reference).ok());
+        let images: Vec<Vec<[f32; 3]>> = rs
+            .iter()
+            .filter_map(|r| {
+                load_image(&out_dir.join("runs").join(&r.id).join("image.exr"))
+                    .ok()
+                    .map(|i| i.mean)
+            })
+            .collect();
+        let slices: Vec<&[[f32; 3]]> = images.iter().map(|i| i.as_slice()).collect();
+        let bv = reference.as_ref().and_then(|r| bias_variance(&slices, r));
+        let image = match (reference.as_ref(), mean_image(&slices)) {
+            (Some(r), Some(layers)) => {
+                let file = format!(
+                    "images/{}.exr",
+                    sanitize(&format!("{scene}-{method}-{setting}"))
+                );
+                write_exr(&out_dir.join(&file), r.width, r.height, &layers)
+                    .map_err(io::Error::other)?;
+                Some(file)
+            }
+            _ => None,
+        };
+        settings.push(SettingSummary {
+            scene: scene.clone(),
+            method: method.clone(),
+            setting: setting.clone(),
+            trials: rs.len(),
+            spp: get(|r| r.spp as f64).0,
+            wall_seconds: get(|r| r.wall_seconds).0,
+            mse: get(|r| r.errors.mse),
+            rel_mse: get(|r| r.errors.rel_mse),
+            mae: get(|r| r.errors.mae),
+            efficiency: get(|r| r.efficiency),
+            bias2: bv.map(|b| b.bias2),
+            variance: bv.map(|b| b.variance),
+            non_finite: rs.iter().map(|r| r.non_finite).sum(),
+            image,
+        });
+    }
+    let plots = write_plots(out_dir, &rows)?;
+    let summary = serde_json::json!({
+        "runs": records.len(),
+        "rel_mse_epsilon": REL_EPSILON,
+        "metrics": "mse and rel_mse have the reference's own variance subtracted; values are (mean over trials, standard error)",
+        "settings": settings,
+        "convergence": plots.fits,
+        "plots": plots.files,
+    });
+    write_atomic(
+        &out_dir.join("summary.json"),
+        serde_json::to_string_pretty(&summary)
+            .map_err(io::Error::other)?
+            .as_bytes(),
+    )
+}
+
+struct Plots {
+    fits: Vec<SeriesFit>,
+    files: Vec<String>,
+}
+
+/// `lightlab plot`: redraws the plots of `out_dir` from its `runs.csv` alone.
+pub fn plot_from_csv(out_dir: &Path) -> io::Result<Vec<String>> {
+    let path = out_dir.join("runs.csv");
+    let mut reader = csv::Reader::from_path(&path)
+        .map_err(|e| io::Error::other(format!("{}: {e}", path.display())))?;
+    let rows: Vec<CsvRow> = reader
+        .deserialize()
+        .collect::<Result<_, _>>()
+        .map_err(|e| io::Error::other(format!("{}: {e}", path.display())))?;
+    Ok(write_plots(out_dir, &rows)?.files)
+}
+
+fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
+    let pts = points(rows);
+    let mut scenes: Vec<&str> = pts.iter().map(|p| p.scene.as_str()).collect();
+    scenes.dedup();
+    let mut fits = Vec::new();
+    let mut files = Vec::new();
+    for scene in scenes {
+        // Series (method + non-budget setting) → budget setting → trial points.
+        let mut series: BTreeMap<String, BTreeMap<String, Vec<&RunPoint>>> = BTreeMap::new();
+        let mut order: Vec<String> = Vec::new();
+        for p in pts.iter().filter(|p| p.scene == scene) {
+            let label = series_label(&p.method, &series_setting(&p.setting));
+            if !order.contains(&label) {
+                order.push(label.clone());
+            }
+            series
+                .entry(label)
+                .or_default()
+                .entry(p.setting.clone())
+                .or_default()
+                .push(p);
+        }
+        let mut mse_spp = Vec::new();
+        let mut mse_time = Vec::new();
+        let mut efficiency = Vec::new();
+        for label in &order {
+            let mut a = Vec::new();
+            let mut b = Vec::new();
+            let mut c = Vec::new();
+            for trials in series[label].values() {
+                let (spp, _) = mean_se(&trials.iter().map(|p| p.spp).collect::<Vec<_>>());
+                let (time, _) = mean_se(&trials.iter().map(|p| p.wall_seconds).collect::<Vec<_>>());
+                let (mse, mse_se) = mean_se(&trials.iter().map(|p| p.mse).collect::<Vec<_>>());
+                let (eff, eff_se) =
+                    mean_se(&trials.iter().map(|p| p.efficiency).collect::<Vec<_>>());
+                a.push((spp, mse, mse_se));
+                b.push((time, mse, mse_se));
+                c.push((spp, eff, eff_se));
+            }
+            a.sort_by(|x, y| x.0.total_cmp(&y.0));
+            b.sort_by(|x, y| x.0.total_cmp(&y.0));
+            c.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let fit = fit_line(
+                &a.iter()
+                    .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+                    .map(|p| (p.0.ln(), p.1.ln()))
+                    .collect::<Vec<_>>(),
+            );
+            let legend = match fit {
+                Some(f) if f.points > 2 => {
+                    format!("{label}: slope {:.2} ± {:.2}", f.slope, f.slope_ci95)
+                }
+                _ => label.clone(),
+            };
+            if let Some(f) = fit {
+                fits.push(SeriesFit {
+                    scene: scene.into(),
+                    series: label.clone(),
+                    slope: f.slope,
+                    slope_ci95: f.slope_ci95,
+                    points: f.points,
+                });
+            }
+            mse_spp.push(Series {
+                label: legend,
+                points: a,
+            });
+            mse_time.push(Series {
+                label: label.clone(),
+                points: b,
+            });
+            efficiency.push(Series {
+                label: label.clone(),
+                points: c,
+            });
+        }
+        let plots = [
+            (
+                "mse-vs-spp",
+                "MSE against samples per pixel",
+                "samples per pixel",
+                "MSE (mean over trials ± 1 s.e.)",
+                mse_spp,
+            ),
+            (
+                "mse-vs-time",
+                "MSE against render time",
+                "wall seconds",
+                "MSE (mean over trials ± 1 s.e.)",
+                mse_time,
+            ),
+            (
+                "efficiency",
+                "Efficiency 1 / (MSE · time)",
+                "samples per pixel",
+                "1 / (MSE · s)",
+                efficiency,
+            ),
+        ];
+        for (name, title, x, y, series) in plots {
+            let plot = LinePlot {
+                title: format!("{scene}: {title}"),
+                x_label: x.into(),
+                y_label: y.into(),
+                log_x: true,
+                log_y: true,
+                series,
+            };
+            let svg = render_svg(&plot).map_err(io::Error::other)?;
+            let file = format!("{scene}-{name}.svg");
+            write_atomic(&out_dir.join(&file), svg.as_bytes())?;
+            files.push(file);
+        }
+    }
+    Ok(Plots { fits, files })
+}

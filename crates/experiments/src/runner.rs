@@ -1,0 +1,304 @@
+//! `lightlab run`: renders every run of an experiment that has not finished yet, compares it with
+//! the reference and records it under `results/<name>/runs/<id>/` (image.exr, run.ron, then
+//! metrics.json, each written atomically; metrics.json last, so its presence marks a finished run).
+//! An interrupted sweep therefore resumes where it stopped; shards run disjoint slices of it.
+
+use crate::atomic::write_atomic;
+use crate::desc::{BudgetDesc, ExperimentDesc, load_experiment};
+use crate::image_io::{film_layers, write_exr};
+use crate::metrics::{Errors, errors};
+use crate::plan::{RunSpec, expand, fnv1a, shard};
+use crate::reference::{Reference, reference};
+use crate::report::write_report;
+use lightlab_core::{NoProgress, Progress};
+use lightlab_integrators::{Budget, Film, Integrator, IntegratorConfig, RenderOutput};
+use lightlab_scene::Scene;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Where results go and which part of the sweep to run.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Root of all results: the experiment writes `<results>/<name>/`, references are cached in
+    /// `<results>/references/`.
+    pub results: PathBuf,
+    /// `Some((i, n))`: run only shard i of n (0-based), the runs with index % n == i.
+    pub shard: Option<(u32, u32)>,
+}
+
+/// What a finished run records (`metrics.json`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct RunRecord {
+    pub id: String,
+    pub index: usize,
+    pub scene: String,
+    pub method: String,
+    pub integrator: String,
+    pub setting: String,
+    pub trial: u32,
+    pub seed: u64,
+    /// Budget asked for: samples per pixel, or seconds (then `spp` is what was reached).
+    pub budget_spp: Option<u32>,
+    pub budget_seconds: Option<f64>,
+    pub spp: u32,
+    pub wall_seconds: f64,
+    pub samples: u64,
+    pub rays: u64,
+    pub non_finite: u64,
+    pub errors: Errors,
+    /// The reference image the errors were measured against.
+    pub reference: PathBuf,
+    /// 1 / (MSE · wall seconds).
+    pub efficiency: f64,
+    pub lightlab_version: String,
+}
+
+/// Summary of one `lightlab run`.
+pub struct Outcome {
+    pub out_dir: PathBuf,
+    pub total: usize,
+    pub ran: usize,
+    pub skipped: usize,
+    pub warnings: Vec<String>,
+}
+
+/// Renders `integrator` within `budget`. A time budget renders 1-spp passes with per-pass seeds and
+/// merges them until the time is used (at least one pass).
+pub fn render_budget(
+    integrator: &dyn Integrator,
+    scene: &Scene,
+    budget: BudgetDesc,
+    seed: u64,
+    progress: &dyn Progress,
+) -> RenderOutput {
+    match budget {
+        BudgetDesc::Samples(spp) => integrator.render(scene, &Budget { spp }, seed, progress),
+        BudgetDesc::Seconds(seconds) => {
+            let start = Instant::now();
+            progress.start(1000);
+            let mut done = 0u64;
+            let mut total: Option<RenderOutput> = None;
+            for pass in 0u64.. {
+                let pass_seed = fnv1a(format!("{seed}|pass {pass}").as_bytes());
+                let out = integrator.render(scene, &Budget { spp: 1 }, pass_seed, &NoProgress);
+                total = Some(match total {
+                    None => out,
+                    Some(mut t) => {
+                        merge_film(&mut t.film, &out.film);
+                        t.stats.spp += 1;
+                        t.stats.samples += out.stats.samples;
+                        t.stats.rays += out.stats.rays;
+                        for (a, b) in t.stats.non_finite.iter_mut().zip(&out.stats.non_finite) {
+                            a.1 += b.1;
+                        }
+                        t
+                    }
+                });
+                let elapsed = start.elapsed().as_secs_f64();
+                let permille = ((elapsed / seconds).min(1.0) * 1000.0) as u64;
+                progress.advance(permille.saturating_sub(done));
+                done = done.max(permille);
+                if elapsed >= seconds {
+                    break;
+                }
+            }
+            let mut out = total.expect("at least one pass");
+            out.stats.wall_seconds = start.elapsed().as_secs_f64();
+            out
+        }
+    }
+}
+
+fn merge_film(into: &mut Film, from: &Film) {
+    for (a, b) in into.pixels.iter_mut().zip(&from.pixels) {
+        a.merge(b);
+    }
+}
+
+/// Loads a scene with the experiment's resolution override; returns it with its text.
+pub fn load_scene(path: &Path, resolution: Option<(u32, u32)>) -> Result<(Scene, String), String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("{}: cannot read scene: {e}", path.display()))?;
+    let mut scene = lightlab_scene::parse_scene(&text, path).map_err(|e| e.to_string())?;
+    if let Some((w, h)) = resolution {
+        scene.camera = scene.camera.with_resolution(w, h);
+    }
+    Ok((scene, text))
+}
+
+/// The experiment's output directory.
+pub fn output_dir(desc: &ExperimentDesc, results: &Path) -> PathBuf {
+    results.join(&desc.name)
+}
+
+/// Runs (or resumes) the experiment at `path`.
+pub fn run_experiment(
+    path: &Path,
+    options: &RunOptions,
+    overall: &dyn Progress,
+    per_run: &dyn Progress,
+    log: &dyn Fn(&str),
+) -> Result<Outcome, String> {
+    let desc = load_experiment(path).map_err(|e| e.to_string())?;
+    let mut runs = expand(&desc, path).map_err(|e| e.to_string())?;
+    let total = runs.len();
+    if let Some((i, n)) = options.shard {
+        runs = shard(runs, i, n);
+    }
+    let out_dir = output_dir(&desc, &options.results);
+    let experiment_dir = path.parent().unwrap_or(Path::new("."));
+    let cache_dir = options.results.join("references");
+    let pending: Vec<&RunSpec> = runs
+        .iter()
+        .filter(|r| !run_dir(&out_dir, r).join("metrics.json").is_file())
+        .collect();
+    let skipped = runs.len() - pending.len();
+    if skipped > 0 {
+        log(&format!(
+            "resuming: {skipped} of {} runs already finished",
+            runs.len()
+        ));
+    }
+    overall.start(pending.len() as u64);
+
+    let mut scenes: BTreeMap<PathBuf, (Scene, Reference)> = BTreeMap::new();
+    let mut warnings = Vec::new();
+    for run in &pending {
+        if !scenes.contains_key(&run.scene) {
+            let (scene, text) = load_scene(&run.scene, desc.resolution)?;
+            log(&format!(
+                "reference for {}: {}",
+                run.scene_name,
+                match &desc.reference {
+                    crate::desc::ReferenceDesc::Render { integrator, spp } =>
+                        format!("{integrator} at {spp} spp"),
+                    crate::desc::ReferenceDesc::Exr { path } => path.display().to_string(),
+                }
+            ));
+            let r = reference(
+                &desc.reference,
+                experiment_dir,
+                &cache_dir,
+                &run.scene_name,
+                &text,
+                &scene,
+                per_run,
+            )?;
+            log(&format!(
+                "  {} {}",
+                if r.cached { "cached:" } else { "rendered:" },
+                r.path.display()
+            ));
+            scenes.insert(run.scene.clone(), (scene, r));
+        }
+        let (scene, reference) = &scenes[&run.scene];
+        let config = IntegratorConfig::from_ron(&run.integrator).map_err(|e| e.to_string())?;
+        let out = render_budget(
+            config.build().as_ref(),
+            scene,
+            run.budget,
+            run.seed,
+            per_run,
+        );
+        let layers = film_layers(&out.film);
+        let e = errors(&layers[0].pixels, &reference.image)
+            .ok_or("image and reference sizes differ")?;
+        if e.reference_variance > 0.1 * e.mse.abs() {
+            warnings.push(format!(
+                "{} / {} / {}: the reference's own variance ({:.3e}) is more than 10 % of the measured MSE ({:.3e}); render the reference with more samples",
+                run.scene_name, run.method, run.setting, e.reference_variance, e.mse
+            ));
+        }
+        let record = RunRecord {
+            id: run.id.clone(),
+            index: run.index,
+            scene: run.scene_name.clone(),
+            method: run.method.clone(),
+            integrator: run.integrator.clone(),
+            setting: run.setting.clone(),
+            trial: run.trial,
+            seed: run.seed,
+            budget_spp: match run.budget {
+                BudgetDesc::Samples(s) => Some(s),
+                _ => None,
+            },
+            budget_seconds: match run.budget {
+                BudgetDesc::Seconds(s) => Some(s),
+                _ => None,
+            },
+            spp: out.stats.spp,
+            wall_seconds: out.stats.wall_seconds,
+            samples: out.stats.samples,
+            rays: out.stats.rays,
+            non_finite: out.stats.non_finite_total(),
+            errors: e,
+            reference: reference.path.clone(),
+            efficiency: 1.0 / (e.mse * out.stats.wall_seconds),
+            lightlab_version: env!("CARGO_PKG_VERSION").into(),
+        };
+        let dir = run_dir(&out_dir, run);
+        write_exr(
+            &dir.join("image.exr"),
+            out.film.width,
+            out.film.height,
+            &layers,
+        )
+        .map_err(|e| e.to_string())?;
+        let run_ron =
+            ron::ser::to_string_pretty(run, ron::ser::PrettyConfig::new().struct_names(true))
+                .map_err(|e| e.to_string())?;
+        write_atomic(&dir.join("run.ron"), run_ron.as_bytes())
+            .map_err(|e| format!("{}: {e}", dir.display()))?;
+        let json = serde_json::to_string_pretty(&record).map_err(|e| e.to_string())?;
+        write_atomic(&dir.join("metrics.json"), json.as_bytes())
+            .map_err(|e| format!("{}: {e}", dir.display()))?;
+        overall.advance(1);
+    }
+    warnings.dedup();
+    write_report(&out_dir).map_err(|e| e.to_string())?;
+    Ok(Outcome {
+        out_dir,
+        total,
+        ran: pending.len(),
+        skipped,
+        warnings,
+    })
+}
+
+fn run_dir(out_dir: &Path, run: &RunSpec) -> PathBuf {
+    out_dir.join("runs").join(&run.id)
+}
+
+/// `lightlab merge`: copies the finished runs of shard output directories into `out_dir` (runs
+/// already present are kept) and rewrites the tables and plots.
+pub fn merge(out_dir: &Path, shard_dirs: &[PathBuf]) -> Result<usize, String> {
+    let mut copied = 0;
+    for shard_dir in shard_dirs {
+        let runs = shard_dir.join("runs");
+        let entries = std::fs::read_dir(&runs).map_err(|e| format!("{}: {e}", runs.display()))?;
+        for entry in entries {
+            let entry = entry.map_err(|e| e.to_string())?;
+            let from = entry.path();
+            let to = out_dir.join("runs").join(entry.file_name());
+            if !from.join("metrics.json").is_file()
+                || to.join("metrics.json").is_file()
+                || from == to
+            {
+                continue;
+            }
+            std::fs::create_dir_all(&to).map_err(|e| format!("{}: {e}", to.display()))?;
+            // metrics.json last, as in a run, so an interrupted merge never leaves a half run.
+            for name in ["image.exr", "run.ron", "metrics.json"] {
+                let bytes = std::fs::read(from.join(name))
+                    .map_err(|e| format!("{}: {e}", from.join(name).display()))?;
+                write_atomic(&to.join(name), &bytes)
+                    .map_err(|e| format!("{}: {e}", to.display()))?;
+            }
+            copied += 1;
+        }
+    }
+    write_report(out_dir).map_err(|e| e.to_string())?;
+    Ok(copied)
+}
