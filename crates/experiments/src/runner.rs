@@ -256,6 +256,7 @@ pub fn run_experiment(
             .map_err(|e| format!("{}: {e}", dir.display()))?;
         overall.advance(1);
     }
+    warnings.sort();
     warnings.dedup();
     write_report(&out_dir).map_err(|e| e.to_string())?;
     Ok(Outcome {
