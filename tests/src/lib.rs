@@ -112,3 +112,29 @@ pub fn cornell(s: f32, t: [f32; 3], res: (u32, u32)) -> String {
         lb = v(0.0, 0.0, 0.38),
     )
 }
+
+/// Mean and standard error (from the per-pixel variances) of each of the n × n regions of an
+/// image, so that comparisons cannot hide a local error in the image average.
+pub fn regions(out: &RenderOutput, n: usize) -> Vec<([f64; 3], [f64; 3])> {
+    let f = &out.film;
+    let (w, h) = (f.width as usize, f.height as usize);
+    let mut r = vec![([0.0; 3], [0.0; 3]); n * n];
+    let per = (w / n * (h / n)) as f64;
+    for y in 0..h {
+        for x in 0..w {
+            let (m, v) = (f.mean(y * w + x), f.variance_of_mean(y * w + x));
+            let g = &mut r[(y * n / h) * n + x * n / w];
+            for c in 0..3 {
+                g.0[c] += m[c] / per;
+                g.1[c] += v[c] / (per * per);
+            }
+        }
+    }
+    r.into_iter().map(|(m, v)| (m, v.map(f64::sqrt))).collect()
+}
+
+/// Two-sample z statistic of estimates a ± sa and b ± sb (standard errors); the denominator is
+/// floored at 1e-9 of |b| so that two exact, equal answers give 0.
+pub fn z(a: f64, sa: f64, b: f64, sb: f64) -> f64 {
+    (a - b) / (sa * sa + sb * sb).sqrt().max(1e-9 * b.abs().max(1e-30))
+}

@@ -6,11 +6,7 @@
 //! False-failure rate: each test's z-tests are Šidák-corrected to ≤ 1e-3 per test; fixed seeds.
 
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{cornell, furnace, render, scene};
-
-fn z(a: f64, sa: f64, b: f64, sb: f64) -> f64 {
-    (a - b) / (sa * sa + sb * sb).sqrt().max(1e-9 * b.abs().max(1e-30))
-}
+use lightlab_tests::{cornell, furnace, regions, render, scene, z};
 
 #[test]
 fn furnace_every_bounce_count() {
@@ -66,25 +62,6 @@ fn plane_under_a_constant_sky() {
             se[c]
         );
     }
-}
-
-/// Mean and standard error of each of n×n image regions.
-fn regions(out: &lightlab_integrators::RenderOutput, n: usize) -> Vec<([f64; 3], [f64; 3])> {
-    let f = &out.film;
-    let (w, h) = (f.width as usize, f.height as usize);
-    let mut r = vec![([0.0; 3], [0.0; 3]); n * n];
-    let per = (w / n * (h / n)) as f64;
-    for y in 0..h {
-        for x in 0..w {
-            let (m, v) = (f.mean(y * w + x), f.variance_of_mean(y * w + x));
-            let g = &mut r[(y * n / h) * n + x * n / w];
-            for c in 0..3 {
-                g.0[c] += m[c] / per;
-                g.1[c] += v[c] / (per * per);
-            }
-        }
-    }
-    r.into_iter().map(|(m, v)| (m, v.map(f64::sqrt))).collect()
 }
 
 /// Compares BDPT with path tracing region by region on each (scene text, settings) case.

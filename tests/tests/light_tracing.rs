@@ -6,14 +6,7 @@
 //! False-failure rate: each test's z-tests are Šidák-corrected to ≤ 1e-3 per test; fixed seeds.
 
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{cornell, furnace, render, scene};
-
-fn z(mean: f64, se: f64, want: f64, want_se: f64) -> f64 {
-    (mean - want)
-        / (se * se + want_se * want_se)
-            .sqrt()
-            .max(1e-9 * want.abs().max(1e-30))
-}
+use lightlab_tests::{cornell, furnace, regions, render, scene, z};
 
 #[test]
 fn furnace_every_bounce_count() {
@@ -77,25 +70,6 @@ fn plane_under_a_constant_sky() {
     }
 }
 
-/// Mean and standard error of each of 4×4 image regions.
-fn regions(out: &lightlab_integrators::RenderOutput) -> Vec<([f64; 3], [f64; 3])> {
-    let f = &out.film;
-    let (w, h) = (f.width as usize, f.height as usize);
-    let mut r = vec![([0.0; 3], [0.0; 3]); 16];
-    let per = (w / 4 * (h / 4)) as f64;
-    for y in 0..h {
-        for x in 0..w {
-            let (m, v) = (f.mean(y * w + x), f.variance_of_mean(y * w + x));
-            let g = &mut r[(y * 4 / h) * 4 + x * 4 / w];
-            for c in 0..3 {
-                g.0[c] += m[c] / per;
-                g.1[c] += v[c] / (per * per);
-            }
-        }
-    }
-    r.into_iter().map(|(m, v)| (m, v.map(f64::sqrt))).collect()
-}
-
 #[test]
 fn cornell_box_agrees_with_path_tracing_pinhole_and_thin_lens() {
     let pinhole = cornell(1.0, [0.0; 3], (32, 32));
@@ -107,8 +81,8 @@ fn cornell_box_agrees_with_path_tracing_pinhole_and_thin_lens() {
     let crit = z_critical(sidak(1e-3, 2 * 16 * 3));
     for (what, text) in [("pinhole", pinhole), ("thin lens", thin_lens)] {
         let sc = scene(&text);
-        let pt = regions(&render(&sc, "Path(max_bounces: 4)", 256, 1));
-        let lt = regions(&render(&sc, "Light(max_bounces: 4)", 64, 2));
+        let pt = regions(&render(&sc, "Path(max_bounces: 4)", 256, 1), 4);
+        let lt = regions(&render(&sc, "Light(max_bounces: 4)", 64, 2), 4);
         for (k, (a, b)) in pt.iter().zip(&lt).enumerate() {
             for c in 0..3 {
                 let z = z(b.0[c], b.1[c], a.0[c], a.1[c]);

@@ -8,39 +8,18 @@
 //! comparisons), fixed seeds.
 
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{cornell, render, scene};
-
-fn region_means(out: &lightlab_integrators::RenderOutput) -> Vec<([f64; 3], [f64; 3])> {
-    let f = &out.film;
-    let (w, h) = (f.width as usize, f.height as usize);
-    let mut regions = vec![([0.0; 3], [0.0; 3]); 16];
-    let per = (w / 4 * (h / 4)) as f64;
-    for y in 0..h {
-        for x in 0..w {
-            let r = &mut regions[(y * 4 / h) * 4 + x * 4 / w];
-            let (m, v) = (f.mean(y * w + x), f.variance_of_mean(y * w + x));
-            for c in 0..3 {
-                r.0[c] += m[c] / per;
-                r.1[c] += v[c] / (per * per);
-            }
-        }
-    }
-    regions
-        .into_iter()
-        .map(|(m, v)| (m, v.map(f64::sqrt)))
-        .collect()
-}
+use lightlab_tests::{cornell, regions, render, scene};
 
 #[test]
 fn all_samplers_agree_on_the_cornell_box() {
     let sc = scene(&cornell(1.0, [0.0; 3], (32, 32)));
-    let base = region_means(&render(&sc, "Path(max_bounces: 4)", 256, 21));
+    let base = regions(&render(&sc, "Path(max_bounces: 4)", 256, 21), 4);
     let samplers = ["Stratified", "LatinHypercube", "Halton", "Sobol"];
     let crit = z_critical(sidak(1e-3, (samplers.len() * 16 * 3) as u64));
     for s in samplers {
         let out = render(&sc, &format!("Path(max_bounces: 4, sampler: {s})"), 64, 22);
         assert_eq!(out.stats.non_finite_total(), 0);
-        for (k, (a, b)) in base.iter().zip(region_means(&out)).enumerate() {
+        for (k, (a, b)) in base.iter().zip(regions(&out, 4)).enumerate() {
             for c in 0..3 {
                 let se = (a.1[c] * a.1[c] + b.1[c] * b.1[c]).sqrt();
                 let z = (b.0[c] - a.0[c]) / se.max(1e-12);
