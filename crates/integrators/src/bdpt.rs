@@ -849,24 +849,16 @@ impl SamplerVisitor for RenderWith<'_> {
             *p = p.plus_independent(&splat);
         }
         let wall = start.elapsed().as_secs_f64();
-        let samples = paths;
-        let stats = RenderStats {
-            integrator: "Bdpt".into(),
-            width,
-            height,
-            spp: budget.spp,
+        let stats = RenderStats::new(
+            "Bdpt",
+            (width, height),
+            budget,
             seed,
-            threads: rayon::current_num_threads(),
-            wall_seconds: wall,
-            samples,
-            rays: counters.rays,
-            rays_per_second: counters.rays as f64 / wall.max(1e-9),
-            samples_per_second: samples as f64 / wall.max(1e-9),
-            non_finite: vec![
-                ("connection".into(), counters.non_finite[CONNECTION]),
-                ("splat".into(), counters.non_finite[SPLAT]),
-            ],
-        };
+            wall,
+            paths,
+            &counters,
+            &["connection", "splat"],
+        );
         RenderOutput { film, stats }
     }
 }
@@ -957,8 +949,7 @@ mod tests {
                     for s in 0..n {
                         let t = n - s;
                         let (light, camera) = split(&scene, &z, s);
-                        let connection_delta =
-                            (s > 0 && light[s - 1].delta) || (s > 0 && camera[t - 1].delta);
+                        let connection_delta = s > 0 && (light[s - 1].delta || camera[t - 1].delta);
                         if connection_delta {
                             continue;
                         }

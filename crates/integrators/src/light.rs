@@ -269,20 +269,16 @@ impl Integrator for LightTracer {
             *p = PixelSums::from_sums(sum[i], sum_sq[i], paths);
         }
         let wall = start.elapsed().as_secs_f64();
-        let stats = RenderStats {
-            integrator: "Light".into(),
-            width,
-            height,
-            spp: budget.spp,
+        let stats = RenderStats::new(
+            "Light",
+            (width, height),
+            budget,
             seed,
-            threads: rayon::current_num_threads(),
-            wall_seconds: wall,
-            samples: paths,
-            rays: counters.rays,
-            rays_per_second: counters.rays as f64 / wall.max(1e-9),
-            samples_per_second: paths as f64 / wall.max(1e-9),
-            non_finite: vec![("camera_connection".into(), counters.non_finite[CONNECTION])],
-        };
+            wall,
+            paths,
+            &counters,
+            &["camera_connection"],
+        );
         RenderOutput { film, stats }
     }
 }

@@ -327,23 +327,16 @@ impl SamplerVisitor for RenderWith<'_> {
             },
         );
         let samples = width as u64 * height as u64 * budget.spp as u64;
-        let stats = RenderStats {
-            integrator: "Path".into(),
-            width,
-            height,
-            spp: budget.spp,
+        let stats = RenderStats::new(
+            "Path",
+            (width, height),
+            budget,
             seed,
-            threads: rayon::current_num_threads(),
-            wall_seconds: wall,
+            wall,
             samples,
-            rays: counters.rays,
-            rays_per_second: counters.rays as f64 / wall.max(1e-9),
-            samples_per_second: samples as f64 / wall.max(1e-9),
-            non_finite: vec![
-                ("emission".into(), counters.non_finite[EMISSION]),
-                ("next_event".into(), counters.non_finite[NEXT_EVENT]),
-            ],
-        };
+            &counters,
+            &["emission", "next_event"],
+        );
         RenderOutput { film, stats }
     }
 }

@@ -34,6 +34,38 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
+    /// The statistics of a finished render: `samples` camera (or light) paths in `wall` seconds,
+    /// with the non-finite counters named by `techniques` (the integrator's technique numbers).
+    pub(crate) fn new(
+        integrator: &str,
+        (width, height): (u32, u32),
+        budget: &Budget,
+        seed: u64,
+        wall: f64,
+        samples: u64,
+        counters: &Counters,
+        techniques: &[&str],
+    ) -> RenderStats {
+        RenderStats {
+            integrator: integrator.into(),
+            width,
+            height,
+            spp: budget.spp,
+            seed,
+            threads: rayon::current_num_threads(),
+            wall_seconds: wall,
+            samples,
+            rays: counters.rays,
+            rays_per_second: counters.rays as f64 / wall.max(1e-9),
+            samples_per_second: samples as f64 / wall.max(1e-9),
+            non_finite: techniques
+                .iter()
+                .zip(counters.non_finite)
+                .map(|(t, n)| (t.to_string(), n))
+                .collect(),
+        }
+    }
+
     pub fn non_finite_total(&self) -> u64 {
         self.non_finite.iter().map(|(_, n)| n).sum()
     }
