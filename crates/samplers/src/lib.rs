@@ -1,13 +1,16 @@
 //! Sample generation for Monte Carlo integration: the [`Sampler`] trait and its implementations
 //! ([`Independent`], [`Stratified`], [`LatinHypercube`], [`Halton`], [`Sobol`], chosen in settings by
 //! [`SamplerConfig`]), deterministic seeding, warps from the unit square to the domains integrators
-//! need, piecewise-constant distributions and multiple-importance-sampling heuristics.
+//! need, discrete and piecewise-constant distributions ([`Distribution1D`], [`Distribution2D`],
+//! [`AliasTable`]) and multiple-importance-sampling heuristics.
 //!
 //! Determinism (design.md): every value depends only on (seed, pixel, sample index, dimension) — or
 //! (seed, photon index) — never on thread or tile order.
 
+mod alias;
 mod config;
 mod distribution;
+mod distribution2d;
 pub mod halton;
 mod independent;
 pub mod latin;
@@ -18,8 +21,10 @@ pub mod sobol;
 pub mod stratified;
 pub mod warp;
 
+pub use alias::AliasTable;
 pub use config::{SamplerConfig, SamplerVisitor};
 pub use distribution::Distribution1D;
+pub use distribution2d::Distribution2D;
 pub use halton::Halton;
 pub use independent::Independent;
 pub use latin::LatinHypercube;

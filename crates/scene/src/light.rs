@@ -188,15 +188,26 @@ impl Light {
     /// direction).
     pub fn pdf_le(&self, shapes: &[Shape], scene_radius: f32, n: Vec3, w: Vec3) -> (f32, f32) {
         match *self {
-            Light::Area { shape, two_sided, .. } => {
+            Light::Area {
+                shape, two_sided, ..
+            } => {
                 let cos = n.dot(w);
-                let pdf_dir = if two_sided { cos.abs() * 0.5 * INV_PI } else { cos.max(0.0) * INV_PI };
+                let pdf_dir = if two_sided {
+                    cos.abs() * 0.5 * INV_PI
+                } else {
+                    cos.max(0.0) * INV_PI
+                };
                 (shapes[shape as usize].pdf_area(), pdf_dir)
             }
             Light::Point { .. } => (1.0, INV_4PI),
-            Light::Spot { axis, cos_total, .. } => {
+            Light::Spot {
+                axis, cos_total, ..
+            } => {
                 let local_z = axis.dot(w);
-                (1.0, square_to_uniform_cone_pdf(Vec3::new(0.0, 0.0, local_z), cos_total))
+                (
+                    1.0,
+                    square_to_uniform_cone_pdf(Vec3::new(0.0, 0.0, local_z), cos_total),
+                )
             }
             Light::Environment { .. } => (1.0 / (PI * scene_radius * scene_radius), INV_4PI),
         }

@@ -1,7 +1,8 @@
 //! Statistical test support for Lightlab (a dev-dependency only): a chi-square goodness-of-fit
-//! harness for sampling routines ([`chi2`]), z-tests for Monte Carlo estimates and whole images,
-//! approximate-equality asserts and a least-squares line fit for convergence rates ([`stats`]), and
-//! wall/CPU timing for the benchmarks ([`timing`]).
+//! harness for sampling routines ([`chi2`]) with gnomonic windows for narrow sets of directions
+//! ([`window`]), z-tests for Monte Carlo estimates and whole images, approximate-equality asserts
+//! and a least-squares line fit for convergence rates ([`stats`]), and wall/CPU timing for the
+//! benchmarks ([`timing`]).
 //!
 //! A new sampling routine's test is a few lines:
 //!
@@ -28,6 +29,7 @@
 pub mod chi2;
 pub mod stats;
 pub mod timing;
+pub mod window;
 
 pub use chi2::{Chi2Result, Chi2Test, Domain, DomainPoint, chi2_discrete};
 pub use stats::{
@@ -35,3 +37,4 @@ pub use stats::{
     approx_eq, default_alpha, fit_line, image_z_test, mean_and_std_error, sidak, z_critical,
     z_test_mean,
 };
+pub use window::DirectionWindow;
