@@ -124,7 +124,14 @@ pub fn square_to_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
 
 #[inline]
 pub fn square_to_uniform_cone_pdf(v: Vec3, cos_theta_max: f32) -> f32 {
-    if v.z >= cos_theta_max {
+    // Membership by 1 − cos θ = (x² + y²)/(1 + z), as in the inverse: the rounded z alone has only a
+    // few distinct values inside a tiny cone.
+    let inside = if v.z > 0.0 {
+        (v.x * v.x + v.y * v.y) / (1.0 + v.z) <= 1.0 - cos_theta_max
+    } else {
+        v.z >= cos_theta_max
+    };
+    if inside {
         1.0 / (2.0 * PI * (1.0 - cos_theta_max))
     } else {
         0.0

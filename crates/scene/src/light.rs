@@ -202,13 +202,10 @@ impl Light {
             Light::Point { .. } => (1.0, INV_4PI),
             Light::Spot {
                 axis, cos_total, ..
-            } => {
-                let local_z = axis.dot(w);
-                (
-                    1.0,
-                    square_to_uniform_cone_pdf(Vec3::new(0.0, 0.0, local_z), cos_total),
-                )
-            }
+            } => (
+                1.0,
+                square_to_uniform_cone_pdf(Frame::from_z(axis).to_local(w), cos_total),
+            ),
             Light::Environment { .. } => (1.0 / (PI * scene_radius * scene_radius), INV_4PI),
         }
     }
