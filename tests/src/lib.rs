@@ -138,3 +138,72 @@ pub fn regions(out: &RenderOutput, n: usize) -> Vec<([f64; 3], [f64; 3])> {
 pub fn z(a: f64, sa: f64, b: f64, sb: f64) -> f64 {
     (a - b) / (sa * sa + sb * sb).sqrt().max(1e-9 * b.abs().max(1e-30))
 }
+
+/// The white furnace term by term for `integrator` (e.g. "Light"): max_bounces 0…4, the second
+/// term alone and the unbounded series, each image mean z-tested against Lₑ·Σρᵏ (Šidák-corrected
+/// to ≤ 1e-3 over the whole check).
+pub fn check_furnace_every_bounce(integrator: &str, spp: u32) {
+    let (rho, le) = (0.7f64, 0.5f64);
+    let sc = scene(&furnace(rho as f32, le as f32, 1.0, (12, 8)));
+    let configs: Vec<(String, f64)> = (0..=4)
+        .map(|k| {
+            (
+                format!("{integrator}(max_bounces: {k})"),
+                (0..=k).map(|i| le * rho.powi(i)).sum(),
+            )
+        })
+        .chain([
+            (
+                format!("{integrator}(min_bounces: 2, max_bounces: 2)"),
+                le * rho * rho,
+            ),
+            (format!("{integrator}()"), le / (1.0 - rho)),
+        ])
+        .collect();
+    let crit = lightlab_testkit::stats::z_critical(lightlab_testkit::stats::sidak(
+        1e-3,
+        configs.len() as u64 * 3,
+    ));
+    for (config, want) in configs {
+        let out = render(&sc, &config, spp, 11);
+        assert_eq!(out.stats.non_finite_total(), 0);
+        let (mean, se) = out.film.average();
+        for c in 0..3 {
+            let z = z(mean[c], se[c], want, 0.0);
+            assert!(
+                z.abs() < crit,
+                "{config}: {} ± {} vs {want}, z = {z:.2}",
+                mean[c],
+                se[c]
+            );
+        }
+    }
+}
+
+/// A Lambertian plane under a uniform sky L leaves radiance ρ/π · πL = ρL: each `config`'s image
+/// mean is z-tested against it (Šidák-corrected to ≤ 1e-3 over all configs and channels).
+pub fn check_plane_under_sky(configs: &[&str]) {
+    let text = "Scene(camera: Camera(eye: (0, 3, 3), target: (0, 0, 0), fov: 30, resolution: (16, 16)),
+        materials: { \"plane\": Diffuse(albedo: (0.6, 0.5, 0.4)) },
+        shapes: [ Shape(geometry: Quad(corner: (-5, 0, -5), edge1: (0, 0, 10), edge2: (10, 0, 0)), material: \"plane\") ],
+        lights: [ Environment(radiance: (2, 2, 2)) ])";
+    let sc = scene(text);
+    let want = [1.2, 1.0, 0.8];
+    let crit = lightlab_testkit::stats::z_critical(lightlab_testkit::stats::sidak(
+        1e-3,
+        configs.len() as u64 * 3,
+    ));
+    for config in configs {
+        let (mean, se) = render(&sc, config, 256, 5).film.average();
+        for c in 0..3 {
+            let z = z(mean[c], se[c], want[c], 0.0);
+            assert!(
+                z.abs() < crit,
+                "{config}: channel {c}: {} ± {} vs {}, z = {z:.2}",
+                mean[c],
+                se[c],
+                want[c]
+            );
+        }
+    }
+}

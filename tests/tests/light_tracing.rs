@@ -6,68 +6,18 @@
 //! False-failure rate: each test's z-tests are Šidák-corrected to ≤ 1e-3 per test; fixed seeds.
 
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{cornell, furnace, regions, render, scene, z};
+use lightlab_tests::{
+    check_furnace_every_bounce, check_plane_under_sky, cornell, regions, render, scene, z,
+};
 
 #[test]
 fn furnace_every_bounce_count() {
-    let (rho, le) = (0.7f64, 0.5f64);
-    let sc = scene(&furnace(rho as f32, le as f32, 1.0, (12, 8)));
-    let configs: Vec<(String, f64)> = (0..=4)
-        .map(|k| {
-            (
-                format!("Light(max_bounces: {k})"),
-                (0..=k).map(|i| le * rho.powi(i)).sum(),
-            )
-        })
-        .chain([
-            (
-                "Light(min_bounces: 2, max_bounces: 2)".to_string(),
-                le * rho * rho,
-            ),
-            ("Light()".to_string(), le / (1.0 - rho)),
-        ])
-        .collect();
-    let crit = z_critical(sidak(1e-3, configs.len() as u64 * 3));
-    for (config, want) in configs {
-        let out = render(&sc, &config, 256, 11);
-        assert_eq!(out.stats.non_finite_total(), 0);
-        let (mean, se) = out.film.average();
-        for c in 0..3 {
-            let z = z(mean[c], se[c], want, 0.0);
-            assert!(
-                z.abs() < crit,
-                "{config}: {} ± {} vs {want}, z = {z:.2}",
-                mean[c],
-                se[c]
-            );
-        }
-    }
+    check_furnace_every_bounce("Light", 256);
 }
 
 #[test]
 fn plane_under_a_constant_sky() {
-    // Radiance leaving a Lambertian plane under a uniform sky L: ρ/π · πL = ρL.
-    let text = "Scene(camera: Camera(eye: (0, 3, 3), target: (0, 0, 0), fov: 30, resolution: (16, 16)),
-        materials: { \"plane\": Diffuse(albedo: (0.6, 0.5, 0.4)) },
-        shapes: [ Shape(geometry: Quad(corner: (-5, 0, -5), edge1: (0, 0, 10), edge2: (10, 0, 0)), material: \"plane\") ],
-        lights: [ Environment(radiance: (2, 2, 2)) ])";
-    let sc = scene(text);
-    let want = [1.2, 1.0, 0.8];
-    let crit = z_critical(sidak(1e-3, 2 * 3));
-    for config in ["Light()", "Path()"] {
-        let out = render(&sc, config, 256, 5);
-        let (mean, se) = out.film.average();
-        for c in 0..3 {
-            let z = z(mean[c], se[c], want[c], 0.0);
-            assert!(
-                z.abs() < crit,
-                "{config}: channel {c}: {} ± {} vs {}, z = {z:.2}",
-                mean[c],
-                se[c],
-                want[c]
-            );
-        }
-    }
+    check_plane_under_sky(&["Light()", "Path()"]);
 }
 
 #[test]
