@@ -4,12 +4,31 @@
 use lightlab_tests::{cornell, render, scene};
 
 fn render_on(threads: usize, seed: u64) -> lightlab_integrators::Film {
+    render_with(threads, seed, "Path()", 8)
+}
+
+fn render_with(threads: usize, seed: u64, config: &str, spp: u32) -> lightlab_integrators::Film {
     let sc = scene(&cornell(1.0, [0.0; 3], (37, 23)));
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| render(&sc, "Path()", 8, seed)).film
+    pool.install(|| render(&sc, config, spp, seed)).film
+}
+
+/// Photon maps are traced in parallel chunks and searched by a kd-tree: the images must still be
+/// identical on one and two threads.
+#[test]
+fn photon_mapping_same_bits_on_one_and_two_threads() {
+    for config in [
+        "PhotonMap(photons: 30000, caustic_photons: 10000, indirect: FinalGather(rays: 2))",
+        "Sppm(photons_per_pass: 10000)",
+        "Ppm(photons_per_pass: 10000, update: Global)",
+    ] {
+        let one = render_with(1, 4, config, 3);
+        let two = render_with(2, 4, config, 3);
+        assert_eq!(one, two, "{config}");
+    }
 }
 
 #[test]

@@ -4,6 +4,9 @@ use crate::Integrator;
 use crate::bdpt::Bdpt;
 use crate::light::LightTracer;
 use crate::path::PathTracer;
+use crate::photon::config::{PhotonMapConfig, ProgressiveConfig};
+use crate::photon::pm::PhotonMapper;
+use crate::photon::progressive::{Progressive, Variant};
 use lightlab_samplers::SamplerConfig;
 use serde::{Deserialize, Serialize};
 
@@ -19,6 +22,15 @@ pub enum IntegratorConfig {
     /// Bidirectional path tracing (Veach & Guibas 1994): every (s, t) connection strategy, combined
     /// by the balance heuristic.
     Bdpt(BdptConfig),
+    /// Photon mapping (Jensen 1996): a global and a caustic photon map, direct light by light
+    /// sampling, final gather.
+    PhotonMap(PhotonMapConfig),
+    /// Progressive photon mapping (Hachisuka et al. 2008): fixed visible points, shrinking radius;
+    /// samples per pixel count passes.
+    Ppm(ProgressiveConfig),
+    /// Stochastic progressive photon mapping (Hachisuka & Jensen 2009): new visible points every
+    /// pass; samples per pixel count passes.
+    Sppm(ProgressiveConfig),
 }
 
 /// Settings of bidirectional path tracing.
@@ -165,7 +177,7 @@ impl From<LightConfig> for LightConfigRaw {
 
 /// The bounce settings every integrator shares: unbounded paths need Russian roulette, and
 /// `min_bounces ≤ max_bounces`.
-fn check_bounces(
+pub(crate) fn check_bounces(
     max_bounces: Option<u32>,
     min_bounces: u32,
     russian_roulette: Option<u32>,
@@ -304,6 +316,9 @@ impl IntegratorConfig {
             IntegratorConfig::Path(c) => Box::new(PathTracer::new(c.clone())),
             IntegratorConfig::Light(c) => Box::new(LightTracer::new(c.clone())),
             IntegratorConfig::Bdpt(c) => Box::new(Bdpt::new(c.clone())),
+            IntegratorConfig::PhotonMap(c) => Box::new(PhotonMapper::new(c.clone())),
+            IntegratorConfig::Ppm(c) => Box::new(Progressive::new(c.clone(), Variant::Ppm)),
+            IntegratorConfig::Sppm(c) => Box::new(Progressive::new(c.clone(), Variant::Sppm)),
         }
     }
 }
@@ -343,6 +358,14 @@ mod tests {
             "Light(max_bounces: 2, min_bounces: 0, russian_roulette: 3)"
         );
         assert_eq!(IntegratorConfig::from_ron(&l.to_ron()).unwrap(), l);
+        for text in [
+            "PhotonMap(photons: 1000, gather: Radius(Absolute(0.1)), indirect: Direct)",
+            "Sppm(alpha: 0.5, update: Global, kernel: Cone)",
+            "Ppm(radius: Absolute(0.01))",
+        ] {
+            let c = IntegratorConfig::from_ron(text).unwrap();
+            assert_eq!(IntegratorConfig::from_ron(&c.to_ron()).unwrap(), c, "{}", c.to_ron());
+        }
         let s = IntegratorConfig::from_ron("Path(sampler: Sobol)").unwrap();
         assert_eq!(IntegratorConfig::from_ron(&s.to_ron()).unwrap(), s);
     }
@@ -373,6 +396,21 @@ mod tests {
                 .unwrap_err()
                 .contains("min_bounces")
         );
+        for (bad, words) in [
+            ("Sppm(alpha: 1.5)", "alpha"),
+            ("Sppm(alpha: 0)", "alpha"),
+            ("Sppm(radius: Absolute(0))", "radius"),
+            ("Sppm(radius: Relative(-1))", "radius"),
+            ("Ppm(photons_per_pass: 0)", "photons_per_pass"),
+            ("PhotonMap(photons: 0)", "photons"),
+            ("PhotonMap(gather: Nearest(k: 0, max_radius: Relative(0.1)))", "k must"),
+            ("PhotonMap(caustic_gather: Radius(Absolute(inf)))", "caustic_gather radius"),
+            ("PhotonMap(indirect: FinalGather(rays: 0))", "FinalGather"),
+            ("PhotonMap(kernel: Gaussian)", "Epanechnikov"),
+        ] {
+            let e = IntegratorConfig::from_ron(bad).unwrap_err();
+            assert!(e.contains(words) && e.contains(':'), "{bad}: {e}");
+        }
         assert!(
             IntegratorConfig::from_ron("Path(sampler: Sobl)")
                 .unwrap_err()

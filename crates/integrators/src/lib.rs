@@ -10,12 +10,18 @@ pub mod bdpt;
 mod config;
 mod film;
 pub mod light;
+mod nee;
 pub mod path;
+pub mod photon;
 mod render;
 
 pub use config::{BdptConfig, IntegratorConfig, LightConfig, Mis, Strategy};
 pub use film::{Film, PixelSums};
-pub use render::{Budget, RenderOutput, RenderStats};
+pub use photon::config::{
+    Gather, Indirect, Length, PhotonMapConfig, ProgressiveConfig, RadiusUpdate,
+};
+pub use photon::map::Kernel;
+pub use render::{Budget, Counters, RenderOutput, RenderStats};
 
 use lightlab_core::Progress;
 use lightlab_scene::Scene;
@@ -31,4 +37,20 @@ pub trait Integrator: Send + Sync {
         seed: u64,
         progress: &dyn Progress,
     ) -> RenderOutput;
+
+    /// Renders like [`Integrator::render`], calling `on_pass(samples_done, film)` with the image
+    /// so far whenever the integrator has one — after every pass for progressive photon mapping,
+    /// so that a convergence curve comes from one run. The default reports the final image only.
+    fn render_passes(
+        &self,
+        scene: &Scene,
+        budget: &Budget,
+        seed: u64,
+        progress: &dyn Progress,
+        on_pass: &mut dyn FnMut(u32, &Film),
+    ) -> RenderOutput {
+        let out = self.render(scene, budget, seed, progress);
+        on_pass(budget.spp, &out.film);
+        out
+    }
 }

@@ -12,11 +12,12 @@
 
 use crate::config::{PathConfig, Strategy};
 use crate::film::PixelSums;
+use crate::nee::sample_direct;
 use crate::render::{Counters, render_tiles};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::{Vec2, Vec3};
 use lightlab_core::{INV_2PI, INV_4PI, Progress, Rgb, TransportMode};
-use lightlab_geometry::{NO_LIGHT, spawn_ray, spawn_ray_to, spawn_ray_to_point};
+use lightlab_geometry::{NO_LIGHT, spawn_ray};
 use lightlab_materials::{Bsdf, SurfaceBsdf};
 use lightlab_samplers::mis::power_heuristic;
 use lightlab_samplers::warp::{square_to_uniform_hemisphere, square_to_uniform_sphere};
@@ -128,33 +129,23 @@ impl PathTracer {
             if self.samples_lights()
                 && !delta
                 && depth + 1 >= cfg.min_bounces
-                && let Some((li_index, pmf)) = scene.sample_light(u_light)
+                && let Some(d) = sample_direct(
+                    scene,
+                    &hit,
+                    &sb,
+                    wo,
+                    u_light,
+                    u_light_point,
+                    cfg.shadows,
+                    counters,
+                )
             {
-                let light = &scene.lights[li_index as usize];
-                if let Some(ls) = light.sample_li(shapes, hit.p, u_light_point) {
-                    let e = sb.eval(wo, ls.wi, TransportMode::Radiance);
-                    if !ls.li.is_black() && !e.f.is_black() {
-                        counters.rays += cfg.shadows as u64;
-                        if !cfg.shadows || !self.shadowed(scene, &hit, &ls) {
-                            let light_pdf = pmf * ls.pdf_w;
-                            let w = if ls.delta
-                                || cfg.strategy == Strategy::LightOnly
-                                || !cfg.shadows
-                            {
-                                1.0
-                            } else {
-                                power_heuristic(1.0, light_pdf, 1.0, e.pdf_fwd)
-                            };
-                            let cos = ls.wi.dot(sb.frame.n).abs();
-                            add(
-                                &mut l,
-                                beta * e.f * ls.li * (cos * w / light_pdf),
-                                NEXT_EVENT,
-                                counters,
-                            );
-                        }
-                    }
-                }
+                let w = if d.delta || cfg.strategy == Strategy::LightOnly || !cfg.shadows {
+                    1.0
+                } else {
+                    power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
+                };
+                add(&mut l, beta * d.value * w, NEXT_EVENT, counters);
             }
 
             // Continue the path.
@@ -193,24 +184,6 @@ impl PathTracer {
             ray = spawn_ray(hit.p, hit.p_error, hit.ng, step.wi);
         }
         l
-    }
-
-    fn shadowed(
-        &self,
-        scene: &Scene,
-        hit: &lightlab_geometry::Hit,
-        ls: &lightlab_scene::LightSample,
-    ) -> bool {
-        let ray = if ls.infinite {
-            let mut r = spawn_ray(hit.p, hit.p_error, hit.ng, ls.wi);
-            r.t_max = f32::INFINITY;
-            r
-        } else if ls.delta {
-            spawn_ray_to_point(hit.p, hit.p_error, hit.ng, ls.p)
-        } else {
-            spawn_ray_to(hit.p, hit.p_error, hit.ng, ls.p, ls.p_error, ls.n)
-        };
-        scene.occluded(&ray)
     }
 }
 

@@ -29,6 +29,10 @@ pub struct RenderStats {
     pub rays: u64,
     pub rays_per_second: f64,
     pub samples_per_second: f64,
+    /// Photon paths traced (photon-mapping integrators).
+    pub photons: u64,
+    /// Photons stored in photon maps, summed over maps and passes.
+    pub photons_stored: u64,
     /// Contributions that were NaN or infinite and were left out of the film, by technique.
     pub non_finite: Vec<(String, u64)>,
 }
@@ -58,6 +62,8 @@ impl RenderStats {
             rays: counters.rays,
             rays_per_second: counters.rays as f64 / wall.max(1e-9),
             samples_per_second: samples as f64 / wall.max(1e-9),
+            photons: 0,
+            photons_stored: 0,
             non_finite: techniques
                 .iter()
                 .zip(counters.non_finite)
@@ -78,13 +84,13 @@ pub struct RenderOutput {
 
 /// Counters kept per tile and summed; `non_finite` is indexed by the integrator's technique number.
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct Counters {
+pub struct Counters {
     pub rays: u64,
     pub non_finite: [u64; 2],
 }
 
 impl Counters {
-    pub(crate) fn merge(&mut self, o: &Counters) {
+    pub fn merge(&mut self, o: &Counters) {
         self.rays += o.rays;
         for (a, b) in self.non_finite.iter_mut().zip(o.non_finite) {
             *a += b;

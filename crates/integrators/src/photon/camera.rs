@@ -1,0 +1,196 @@
+//! The camera side of photon mapping: a camera path traced through specular (and, if asked,
+//! glossy) surfaces to the first surface where photons are gathered — the *visible point* of
+//! Hachisuka & Jensen 2009, the first diffuse hit of Jensen's two-pass method (Jensen 2001, §9.1).
+//!
+//! Along the way it collects what photons do not: emission seen through the specular chain
+//! (`L S* E`), and next-event estimation at every glossy vertex it passes and at the visible point
+//! (`L X S* E`). At glossy vertices emission found by BSDF sampling and by light sampling are
+//! combined by the power heuristic (Veach 1997, §9.2), as in the path tracer; at the visible point
+//! light sampling is the only strategy for direct light, so it has weight 1 there.
+
+use super::map::GatherPoint;
+use crate::nee::sample_direct;
+use crate::render::Counters;
+use glam::Vec2;
+use lightlab_core::{INV_4PI, Rgb, TransportMode};
+use lightlab_geometry::{Hit, NO_LIGHT, spawn_ray};
+use lightlab_materials::{LobeClass, SurfaceBsdf};
+use lightlab_samplers::Sampler;
+use lightlab_samplers::mis::power_heuristic;
+use lightlab_scene::{Light, Scene};
+
+/// Technique number of non-finite camera-side contributions (emission and direct lighting).
+pub const CAMERA: usize = 0;
+
+/// Settings of the camera walk.
+#[derive(Clone, Copy, Debug)]
+pub struct Walk {
+    pub max_bounces: u32,
+    pub min_bounces: u32,
+    pub russian_roulette: Option<u32>,
+    /// Continue through glossy surfaces instead of gathering there.
+    pub trace_glossy: bool,
+    /// Next-event estimation at glossy vertices and at the visible point.
+    pub direct: bool,
+}
+
+/// Where the camera path stopped to gather photons.
+#[derive(Clone, Copy, Debug)]
+pub struct VisiblePoint {
+    pub gather: GatherPoint,
+    pub hit: Hit,
+    /// Camera-path throughput up to the point (We·Π f·|cos|/p, We/p = 1 for the pinhole).
+    pub beta: Rgb,
+    /// Scattering vertices from the camera, the visible point included (d ≥ 1): photons of k
+    /// bounces gathered here make paths of k + d − 1 scattering vertices.
+    pub depth: u32,
+}
+
+impl VisiblePoint {
+    /// Range of photon bounce counts k whose paths through this point have between `min` and `max`
+    /// scattering vertices.
+    #[inline]
+    pub fn photon_bounces(&self, min: u32, max: u32) -> (u32, u32) {
+        (
+            (min + 1).saturating_sub(self.depth).max(1),
+            max.saturating_add(1).saturating_sub(self.depth),
+        )
+    }
+}
+
+/// What a camera walk found: radiance already estimated (emission and direct light), and the
+/// visible point, if the path reached one.
+pub struct WalkResult {
+    pub l: Rgb,
+    pub visible: Option<VisiblePoint>,
+}
+
+/// Traces the camera ray through raster position `film`. `sampler` drives the path (lens, BSDF
+/// and roulette choices); `lights` drives next-event estimation, so that progressive photon
+/// mapping can keep a path fixed while its light samples change.
+pub fn walk<S: Sampler, T: Sampler>(
+    scene: &Scene,
+    cfg: &Walk,
+    film: Vec2,
+    sampler: &mut S,
+    lights: &mut T,
+    counters: &mut Counters,
+) -> WalkResult {
+    let mut ray = scene.camera.generate_ray(film, sampler.next_2d());
+    let mut l = Rgb::BLACK;
+    let mut beta = Rgb::WHITE;
+    let mut eta_scale = 1.0f32;
+    let mut depth = 0u32;
+    // Whether emission reached from the previous vertex competes with light sampling there, and
+    // the BSDF pdf it was reached with.
+    let mut prev_nee: Option<f32> = None;
+    let mut prev_p = ray.o;
+    let shapes = scene.shapes();
+    loop {
+        counters.rays += 1;
+        let Some(hit) = scene.intersect(&ray) else {
+            let le = scene.environment_le();
+            if depth >= cfg.min_bounces && !le.is_black() {
+                let w = prev_nee.map_or(1.0, |bsdf_pdf| {
+                    let light_pdf = scene
+                        .environment_lights()
+                        .iter()
+                        .map(|&i| scene.light_pmf(i) * INV_4PI)
+                        .sum();
+                    power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf)
+                });
+                add(&mut l, beta * le * w, counters);
+            }
+            return WalkResult { l, visible: None };
+        };
+        let wo = -ray.d.normalize();
+        if hit.light != NO_LIGHT
+            && depth >= cfg.min_bounces
+            && let Light::Area {
+                radiance,
+                two_sided,
+                ..
+            } = scene.lights[hit.light as usize]
+        {
+            let le = Light::area_le(radiance, two_sided, hit.ng, wo);
+            if !le.is_black() {
+                let w = prev_nee.map_or(1.0, |bsdf_pdf| {
+                    let light_pdf = scene.light_pmf(hit.light)
+                        * shapes[hit.shape as usize].pdf_solid_angle(prev_p, hit.p, hit.ng);
+                    power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf)
+                });
+                add(&mut l, beta * le * w, counters);
+            }
+        }
+        if depth >= cfg.max_bounces {
+            return WalkResult { l, visible: None };
+        }
+        let bsdf = scene.materials[hit.material as usize];
+        let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
+        let class = bsdf.lobe_class();
+        let gathers = match class {
+            LobeClass::Specular => false,
+            LobeClass::Glossy => !cfg.trace_glossy,
+            LobeClass::Diffuse => true,
+        };
+        let (u_light, u_point) = (lights.next_1d(), lights.next_2d());
+        if cfg.direct
+            && class != LobeClass::Specular
+            && depth + 1 >= cfg.min_bounces
+            && let Some(d) = sample_direct(scene, &hit, &sb, wo, u_light, u_point, true, counters)
+        {
+            let w = if gathers || d.delta {
+                1.0
+            } else {
+                power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
+            };
+            add(&mut l, beta * d.value * w, counters);
+        }
+        if gathers {
+            let visible = VisiblePoint {
+                gather: GatherPoint {
+                    p: hit.p,
+                    wo,
+                    bsdf: sb,
+                },
+                hit,
+                beta,
+                depth: depth + 1,
+            };
+            return WalkResult {
+                l,
+                visible: Some(visible),
+            };
+        }
+        let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
+        let Some(s) = sb.sample(wo, u_lobe, u_dir, TransportMode::Radiance) else {
+            return WalkResult { l, visible: None };
+        };
+        beta *= s.weight;
+        if s.transmission {
+            eta_scale *= s.eta * s.eta;
+        }
+        prev_nee = (cfg.direct && !s.delta).then_some(s.pdf);
+        prev_p = hit.p;
+        depth += 1;
+        if let Some(rr) = cfg.russian_roulette
+            && depth >= rr
+        {
+            let survive = (beta.max_component() * eta_scale).min(1.0);
+            if !(u_rr < survive) {
+                return WalkResult { l, visible: None };
+            }
+            beta /= survive;
+        }
+        ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
+    }
+}
+
+#[inline]
+fn add(l: &mut Rgb, c: Rgb, counters: &mut Counters) {
+    if c.is_finite() {
+        *l += c;
+    } else {
+        counters.non_finite[CAMERA] += 1;
+    }
+}

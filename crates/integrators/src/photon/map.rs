@@ -1,0 +1,254 @@
+//! The photon map: photons indexed by a kd-tree (kiddo's immutable tree; Bentley 1975, Jensen 2001
+//! ch. 6) and the radiance estimate built from them.
+//!
+//! Density estimation (Jensen 2001, eq. 7.6, with a kernel as in Silverman 1986):
+//!
+//!   L(x, ωo) ≈ 1/(π r²) · Σ_p K(d_p² / r²) · f(x, ωo, ωp) · Φ_p · |ωp·n_s| / |ωp·n_g|,
+//!
+//! where K is normalised so that ∫ K over the unit disk is π (the estimate is unbiased where the
+//! photon density is constant), f is evaluated without the cosine (the photon density already is
+//! flux per unit area), and the last factor converts flux per geometric area into the
+//! shading-normal cosine the BSDF expects (it is 1 without shading normals). Only photons whose
+//! surface faces the same way as the gather point's are used (Mitsuba issue #145: photons on the
+//! far side of a thin wall), and the BSDF's own side test rejects photons from behind.
+
+use super::trace::Photon;
+use glam::Vec3;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use lightlab_core::{Rgb, TransportMode};
+use lightlab_materials::SurfaceBsdf;
+use serde::{Deserialize, Serialize};
+use std::num::NonZero;
+
+/// Density-estimation kernel, as a function of t = d²/r², normalised to ∫_disk K dA = π r².
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Kernel {
+    /// K = 1: every photon in the disk counts equally (Jensen 2001, eq. 7.6).
+    #[default]
+    Uniform,
+    /// K = 3 (1 − d/r): the cone filter (Jensen 2001, §7.2.1, with k = 1).
+    Cone,
+    /// K = 2 (1 − d²/r²): the Epanechnikov kernel, optimal in the AMISE sense (Silverman 1986, §4.3.1).
+    Epanechnikov,
+}
+
+impl Kernel {
+    /// Weight of a photon at squared distance `t·r²` (0 ≤ t ≤ 1).
+    #[inline]
+    pub fn weight(self, t: f32) -> f32 {
+        match self {
+            Kernel::Uniform => 1.0,
+            Kernel::Cone => 3.0 * (1.0 - t.sqrt()).max(0.0),
+            Kernel::Epanechnikov => 2.0 * (1.0 - t).max(0.0),
+        }
+    }
+}
+
+/// How the photons of one estimate are found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Search {
+    /// Every photon within `radius_sq`.
+    Radius { radius_sq: f32 },
+    /// The k nearest photons, no farther than `max_radius_sq`; the estimate's radius is the k-th
+    /// distance (or the cap when fewer are found).
+    Nearest { k: usize, max_radius_sq: f32 },
+}
+
+/// A point where radiance is estimated from photons.
+#[derive(Clone, Copy, Debug)]
+pub struct GatherPoint {
+    pub p: Vec3,
+    /// Unit direction toward the camera side of the path.
+    pub wo: Vec3,
+    pub bsdf: SurfaceBsdf,
+}
+
+pub struct PhotonMap {
+    photons: Vec<Photon>,
+    /// `None` when there are no photons (kiddo cannot build an empty tree).
+    tree: Option<ImmutableKdTree<f32, 3>>,
+}
+
+impl PhotonMap {
+    pub fn new(photons: Vec<Photon>) -> PhotonMap {
+        let points: Vec<[f32; 3]> = photons.iter().map(|p| p.p.to_array()).collect();
+        let tree = if points.is_empty() {
+            None
+        } else {
+            ImmutableKdTree::new_from_slice(&points).ok()
+        };
+        PhotonMap { photons, tree }
+    }
+
+    pub fn photons(&self) -> &[Photon] {
+        &self.photons
+    }
+
+    pub fn len(&self) -> usize {
+        self.photons.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.photons.is_empty()
+    }
+
+    /// Bytes held: photons plus the tree (its points and item indices).
+    pub fn bytes(&self) -> usize {
+        self.photons.capacity() * std::mem::size_of::<Photon>()
+            + self.photons.len() * (std::mem::size_of::<[f32; 3]>() + std::mem::size_of::<u32>())
+    }
+
+    /// Calls `visit(photon, d²)` for every photon within `radius_sq` of `p` (in no particular but
+    /// deterministic order).
+    #[inline]
+    pub fn within(&self, p: Vec3, radius_sq: f32, mut visit: impl FnMut(&Photon, f32)) {
+        let Some(tree) = &self.tree else { return };
+        tree.query(&p.to_array())
+            .within::<SquaredEuclidean<f32>>(radius_sq)
+            .unsorted()
+            .visit(|it| visit(&self.photons[it.item as usize], it.distance));
+    }
+
+    /// The k nearest photons within `max_radius_sq`, nearest first, as (index, d²).
+    pub fn nearest(&self, p: Vec3, k: usize, max_radius_sq: f32) -> Vec<(u32, f32)> {
+        let (Some(tree), Some(k)) = (&self.tree, NonZero::new(k)) else {
+            return Vec::new();
+        };
+        tree.query(&p.to_array())
+            .nearest_n::<SquaredEuclidean<f32>>(k)
+            .within(max_radius_sq)
+            .execute()
+            .into_iter()
+            .map(|it| (it.item, it.distance))
+            .collect()
+    }
+
+    /// Reflected radiance at `g` from the photons `accept` keeps: Σ K·f·Φ·(shading factor) and the
+    /// squared radius it is to be divided by π times. The kNN radius is set by all photons, accepted
+    /// or not, so the photons kept are a thinning of a disk of known area.
+    pub fn estimate(
+        &self,
+        g: &GatherPoint,
+        search: Search,
+        kernel: Kernel,
+        accept: impl Fn(&Photon) -> bool,
+    ) -> (Rgb, f32) {
+        let mut sum = Rgb::BLACK;
+        match search {
+            Search::Radius { radius_sq } => {
+                self.within(g.p, radius_sq, |ph, d2| {
+                    if accept(ph) {
+                        sum += kernel.weight(d2 / radius_sq) * contribution(g, ph);
+                    }
+                });
+                (sum, radius_sq)
+            }
+            Search::Nearest { k, max_radius_sq } => {
+                let found = self.nearest(g.p, k, max_radius_sq);
+                let radius_sq = if found.len() == k {
+                    found.last().map_or(max_radius_sq, |&(_, d2)| d2)
+                } else {
+                    max_radius_sq
+                };
+                if radius_sq > 0.0 {
+                    for &(i, d2) in &found {
+                        let ph = &self.photons[i as usize];
+                        if accept(ph) {
+                            sum += kernel.weight(d2 / radius_sq) * contribution(g, ph);
+                        }
+                    }
+                }
+                (sum, radius_sq)
+            }
+        }
+    }
+}
+
+/// f(ωo, ωp) · Φ_p · |ωp·n_s| / |ωp·n_g| for one photon, or zero when its surface faces away.
+#[inline]
+pub fn contribution(g: &GatherPoint, ph: &Photon) -> Rgb {
+    if ph.ng.dot(g.bsdf.ng) <= 0.0 {
+        return Rgb::BLACK;
+    }
+    let f = g.bsdf.eval(g.wo, ph.wi, TransportMode::Radiance).f;
+    if f.is_black() {
+        return Rgb::BLACK;
+    }
+    let (cos_s, cos_g) = (ph.wi.dot(g.bsdf.frame.n).abs(), ph.wi.dot(g.bsdf.ng).abs());
+    let shading = if cos_s == cos_g { 1.0 } else { cos_s / cos_g };
+    f * ph.power * shading
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lightlab_samplers::{Independent, Sampler};
+
+    fn photon_at(p: Vec3) -> Photon {
+        Photon {
+            p,
+            wi: Vec3::Z,
+            ng: Vec3::Z,
+            power: Rgb::WHITE,
+            bounces: 1,
+            specular_chain: true,
+        }
+    }
+
+    /// kd-tree gathers equal a linear scan on random queries, for radius and kNN searches
+    /// (radius² passed to kiddo, not r).
+    #[test]
+    fn gathers_match_a_linear_scan() {
+        let mut s = Independent::new();
+        s.start_pixel_sample(7, 0, 0);
+        let photons: Vec<Photon> = (0..5000)
+            .map(|_| photon_at(Vec3::new(s.next_1d(), s.next_1d(), s.next_1d() * 0.1)))
+            .collect();
+        let map = PhotonMap::new(photons.clone());
+        for q in 0..200 {
+            let p = Vec3::new(s.next_1d(), s.next_1d(), 0.05);
+            let r = 0.01 + 0.1 * (q as f32 / 200.0);
+            let mut from_tree: Vec<usize> = Vec::new();
+            map.within(p, r * r, |ph, d2| {
+                assert!((d2 - ph.p.distance_squared(p)).abs() < 1e-6);
+                from_tree.push(photons.iter().position(|x| x.p == ph.p).unwrap());
+            });
+            from_tree.sort();
+            let scan: Vec<usize> = (0..photons.len())
+                .filter(|&i| photons[i].p.distance_squared(p) <= r * r)
+                .collect();
+            assert_eq!(from_tree, scan, "query {q} at {p} r {r}");
+
+            let k = 1 + q % 60;
+            let mut by_distance: Vec<(f32, usize)> = (0..photons.len())
+                .map(|i| (photons[i].p.distance_squared(p), i))
+                .filter(|&(d2, _)| d2 <= r * r)
+                .collect();
+            by_distance.sort_by(|a, b| a.0.total_cmp(&b.0));
+            by_distance.truncate(k);
+            let knn = map.nearest(p, k, r * r);
+            assert_eq!(knn.len(), by_distance.len(), "query {q}");
+            for (a, b) in knn.iter().zip(&by_distance) {
+                assert!((a.1 - b.0).abs() < 1e-7, "query {q}: {a:?} vs {b:?}");
+            }
+        }
+    }
+
+    /// Each kernel integrates to π over the unit disk (midpoint rule in t = d²/r², for which the
+    /// disk's area element is π dt).
+    #[test]
+    fn kernels_are_normalised() {
+        for kernel in [Kernel::Uniform, Kernel::Cone, Kernel::Epanechnikov] {
+            let n = 100_000;
+            let integral: f64 = (0..n)
+                .map(|i| kernel.weight((i as f32 + 0.5) / n as f32) as f64)
+                .sum::<f64>()
+                * std::f64::consts::PI
+                / n as f64;
+            assert!(
+                (integral - std::f64::consts::PI).abs() < 1e-4,
+                "{kernel:?}: {integral}"
+            );
+        }
+    }
+}
