@@ -75,6 +75,28 @@ pub fn render_budget(
 ) -> RenderOutput {
     match budget {
         BudgetDesc::Samples(spp) => integrator.render(scene, &Budget { spp }, seed, progress),
+        // A progressive integrator keeps refining one state: it runs pass after pass until the
+        // time is up (merging independent short runs would never shrink its radius).
+        BudgetDesc::Seconds(seconds) if integrator.progressive() => {
+            let start = Instant::now();
+            progress.start(1000);
+            let mut done = 0u64;
+            let mut out = integrator.render_passes(
+                scene,
+                &Budget { spp: u32::MAX },
+                seed,
+                &NoProgress,
+                &mut |_, _| {
+                    let elapsed = start.elapsed().as_secs_f64();
+                    let permille = ((elapsed / seconds).min(1.0) * 1000.0) as u64;
+                    progress.advance(permille.saturating_sub(done));
+                    done = done.max(permille);
+                    elapsed < seconds
+                },
+            );
+            out.stats.wall_seconds = start.elapsed().as_secs_f64();
+            out
+        }
         BudgetDesc::Seconds(seconds) => {
             let start = Instant::now();
             progress.start(1000);

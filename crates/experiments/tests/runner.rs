@@ -164,3 +164,27 @@ fn reference_cache_key_changes_with_exactly_what_produced_it() {
         assert_ne!(base, other);
     }
 }
+
+/// An equal-time budget runs a progressive integrator as one render, pass after pass, until the
+/// time is up (merging independent one-pass renders would never shrink SPPM's radius).
+#[test]
+fn time_budget_runs_progressive_photon_mapping_pass_after_pass() {
+    use lightlab_experiments::desc::BudgetDesc;
+    use lightlab_experiments::runner::render_budget;
+    use lightlab_integrators::IntegratorConfig;
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/cornell-box.ron"
+    ))
+    .unwrap();
+    let mut scene = lightlab_scene::parse_scene(&text, Path::new("cornell-box.ron")).unwrap();
+    scene.camera = scene.camera.with_resolution(16, 16);
+    let sppm = IntegratorConfig::from_ron("Sppm(photons_per_pass: 2000)")
+        .unwrap()
+        .build();
+    let out = render_budget(&*sppm, &scene, BudgetDesc::Seconds(0.3), 1, &NoProgress);
+    assert!(out.stats.spp > 3, "passes: {}", out.stats.spp);
+    assert_eq!(out.stats.photons, 2000 * out.stats.spp as u64);
+    assert!(out.stats.wall_seconds >= 0.3);
+    assert_eq!(out.film.pixels[0].count, out.stats.spp as u64);
+}

@@ -364,7 +364,12 @@ mod tests {
             "Ppm(radius: Absolute(0.01))",
         ] {
             let c = IntegratorConfig::from_ron(text).unwrap();
-            assert_eq!(IntegratorConfig::from_ron(&c.to_ron()).unwrap(), c, "{}", c.to_ron());
+            assert_eq!(
+                IntegratorConfig::from_ron(&c.to_ron()).unwrap(),
+                c,
+                "{}",
+                c.to_ron()
+            );
         }
         let s = IntegratorConfig::from_ron("Path(sampler: Sobol)").unwrap();
         assert_eq!(IntegratorConfig::from_ron(&s.to_ron()).unwrap(), s);
@@ -403,8 +408,14 @@ mod tests {
             ("Sppm(radius: Relative(-1))", "radius"),
             ("Ppm(photons_per_pass: 0)", "photons_per_pass"),
             ("PhotonMap(photons: 0)", "photons"),
-            ("PhotonMap(gather: Nearest(k: 0, max_radius: Relative(0.1)))", "k must"),
-            ("PhotonMap(caustic_gather: Radius(Absolute(inf)))", "caustic_gather radius"),
+            (
+                "PhotonMap(gather: Nearest(k: 0, max_radius: Relative(0.1)))",
+                "k must",
+            ),
+            (
+                "PhotonMap(caustic_gather: Radius(Absolute(inf)))",
+                "caustic_gather radius",
+            ),
             ("PhotonMap(indirect: FinalGather(rays: 0))", "FinalGather"),
             ("PhotonMap(kernel: Gaussian)", "Epanechnikov"),
         ] {

@@ -38,16 +38,24 @@ pub trait Integrator: Send + Sync {
         progress: &dyn Progress,
     ) -> RenderOutput;
 
+    /// Whether the image improves pass by pass from one state (progressive photon mapping), so
+    /// that [`Integrator::render_passes`] is the way to give it more time; otherwise independent
+    /// renders can simply be merged.
+    fn progressive(&self) -> bool {
+        false
+    }
+
     /// Renders like [`Integrator::render`], calling `on_pass(samples_done, film)` with the image
     /// so far whenever the integrator has one — after every pass for progressive photon mapping,
-    /// so that a convergence curve comes from one run. The default reports the final image only.
+    /// so that a convergence curve or an equal-time run comes from one render; `on_pass`
+    /// returning false stops there. The default reports the final image only.
     fn render_passes(
         &self,
         scene: &Scene,
         budget: &Budget,
         seed: u64,
         progress: &dyn Progress,
-        on_pass: &mut dyn FnMut(u32, &Film),
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
         let out = self.render(scene, budget, seed, progress);
         on_pass(budget.spp, &out.film);

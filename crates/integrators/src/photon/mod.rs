@@ -9,6 +9,7 @@
 
 pub mod camera;
 pub mod config;
+pub mod grid;
 pub mod map;
 pub mod pm;
 pub mod progressive;

@@ -25,8 +25,9 @@
 
 use super::camera::{self, Walk};
 use super::config::{ProgressiveConfig, RadiusUpdate};
+use super::grid::HashGrid;
 use super::map::{Kernel, PhotonMap};
-use super::trace::{Keep, PHOTON_FLUX, PhotonTracing, trace_photons};
+use super::trace::{Keep, PHOTON_FLUX, Photon, PhotonTracing, trace_photons};
 use crate::film::{Film, PixelSums};
 use crate::render::Counters;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
@@ -78,14 +79,15 @@ impl Progressive {
         }
     }
 
-    /// Renders `budget.spp` passes, calling `on_pass(passes_done, film)` after each.
+    /// Renders up to `budget.spp` passes, calling `on_pass(passes_done, film)` after each and
+    /// stopping early when it returns false.
     fn run(
         &self,
         scene: &Scene,
         budget: &Budget,
         seed: u64,
         progress: &dyn Progress,
-        on_pass: &mut dyn FnMut(u32, &Film),
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
         let c = &self.config;
         let start = Instant::now();
@@ -119,16 +121,24 @@ impl Progressive {
         let mut global_radius_sq = r1 * r1;
         progress.start(budget.spp as u64);
         let mut film = Film::new(width, height);
+        let mut passes = 0;
         for pass in 0..budget.spp {
-            let map = PhotonMap::new(trace_photons(
+            let photons = trace_photons(
                 scene,
                 seed,
                 pass as u64 * c.photons_per_pass,
                 c.photons_per_pass,
                 tracing,
                 &mut counters,
-            ));
-            photons_stored += map.len() as u64;
+            );
+            photons_stored += photons.len() as u64;
+            // One radius for every query: the hash grid is faster (BENCHMARKS.md, "Photon maps").
+            let map = match c.update {
+                RadiusUpdate::Local => Index::Tree(PhotonMap::new(photons)),
+                RadiusUpdate::Global => {
+                    Index::Grid(HashGrid::new(&photons, global_radius_sq.sqrt()))
+                }
+            };
             let camera_index = match self.variant {
                 Variant::Ppm => 0,
                 Variant::Sppm => pass as u64,
@@ -215,21 +225,24 @@ impl Progressive {
                 }
                 *p = out;
             }
-            on_pass(i as u32, &film);
+            passes = i as u32;
             progress.advance(1);
+            if !on_pass(passes, &film) {
+                break;
+            }
         }
         let wall = start.elapsed().as_secs_f64();
         let mut stats = RenderStats::new(
             self.name(),
             (width, height),
-            budget,
+            &Budget { spp: passes },
             seed,
             wall,
-            width as u64 * height as u64 * budget.spp as u64,
+            width as u64 * height as u64 * passes as u64,
             &counters,
             &["camera", "photon"],
         );
-        stats.photons = c.photons_per_pass * budget.spp as u64;
+        stats.photons = c.photons_per_pass * passes as u64;
         stats.photons_stored = photons_stored;
         RenderOutput { film, stats }
     }
@@ -239,9 +252,27 @@ fn to_f64(c: Rgb) -> [f64; 3] {
     [c.r as f64, c.g as f64, c.b as f64]
 }
 
+/// The photons of one pass, searchable within a radius.
+enum Index {
+    /// Per-pixel radii (`Local`).
+    Tree(PhotonMap),
+    /// One radius, the grid's own (`Global`).
+    Grid(HashGrid),
+}
+
+impl Index {
+    #[inline]
+    fn within(&self, p: glam::Vec3, radius_sq: f32, visit: impl FnMut(&Photon, f32)) {
+        match self {
+            Index::Tree(map) => map.within(p, radius_sq, visit),
+            Index::Grid(grid) => grid.within(p, visit),
+        }
+    }
+}
+
 /// β · Σ K·f·Φ over the photons of bounce count in `lo..=hi` within the radius, and their number.
 fn gather(
-    map: &PhotonMap,
+    map: &Index,
     vp: &camera::VisiblePoint,
     radius_sq: f32,
     kernel: Kernel,
@@ -270,7 +301,11 @@ impl Integrator for Progressive {
         seed: u64,
         progress: &dyn Progress,
     ) -> RenderOutput {
-        self.run(scene, budget, seed, progress, &mut |_, _| {})
+        self.run(scene, budget, seed, progress, &mut |_, _| true)
+    }
+
+    fn progressive(&self) -> bool {
+        true
     }
 
     fn render_passes(
@@ -279,7 +314,7 @@ impl Integrator for Progressive {
         budget: &Budget,
         seed: u64,
         progress: &dyn Progress,
-        on_pass: &mut dyn FnMut(u32, &Film),
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
         self.run(scene, budget, seed, progress, on_pass)
     }
