@@ -234,6 +234,40 @@ mod tests {
         }
     }
 
+    /// Photons on the far side of a thin wall (opposite normal) or arriving from behind the
+    /// surface do not light the gather point (Mitsuba issue #145); one from the front does, with
+    /// f·Φ = Φ/π for a white Lambertian.
+    #[test]
+    fn photons_from_behind_are_rejected() {
+        let g = GatherPoint {
+            p: Vec3::ZERO,
+            wo: Vec3::new(0.0, 0.6, 0.8),
+            bsdf: SurfaceBsdf::new(
+                Vec3::Z,
+                Vec3::X,
+                Vec3::Z,
+                lightlab_materials::Bsdf::Diffuse { albedo: Rgb::WHITE },
+            ),
+        };
+        let front = Photon {
+            wi: Vec3::new(0.0, -0.6, 0.8),
+            ..photon_at(Vec3::ZERO)
+        };
+        let c = contribution(&g, &front);
+        assert!((c.g - 1.0 / std::f32::consts::PI).abs() < 1e-6, "{c:?}");
+        let far_side = Photon {
+            ng: -Vec3::Z,
+            wi: Vec3::new(0.0, 0.6, -0.8),
+            ..front
+        };
+        assert!(contribution(&g, &far_side).is_black());
+        let from_behind = Photon {
+            wi: Vec3::new(0.0, 0.6, -0.8),
+            ..front
+        };
+        assert!(contribution(&g, &from_behind).is_black());
+    }
+
     /// Each kernel integrates to π over the unit disk (midpoint rule in t = d²/r², for which the
     /// disk's area element is π dt).
     #[test]
