@@ -12,6 +12,7 @@ mod film;
 pub mod light;
 mod nee;
 pub mod path;
+pub mod paths;
 pub mod photon;
 mod render;
 

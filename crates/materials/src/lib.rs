@@ -237,19 +237,31 @@ impl Bsdf {
         matches!(self, Bsdf::Mirror { .. } | Bsdf::Dielectric { .. })
     }
 
-    /// Heckbert class of the material as a whole. A Phong sample still reports
+    /// Heckbert class of the material as a whole: `Diffuse` and microfacet surfaces at least as
+    /// rough as [`DIFFUSE_ALPHA`] are `D`, `Mirror` and smooth `Dielectric` are `S`, smoother
+    /// microfacet surfaces and `Phong` are `G`. A Phong sample still reports
     /// [`LobeClass::Diffuse`] in [`BsdfSample::lobe`] when its diffuse lobe was chosen.
     #[inline]
     pub fn lobe_class(&self) -> LobeClass {
         match self {
             Bsdf::Diffuse { .. } => LobeClass::Diffuse,
             Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => LobeClass::Specular,
-            Bsdf::RoughConductor { .. } | Bsdf::RoughDielectric { .. } | Bsdf::Phong { .. } => {
-                LobeClass::Glossy
+            Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
+                if alpha.min_element() >= DIFFUSE_ALPHA {
+                    LobeClass::Diffuse
+                } else {
+                    LobeClass::Glossy
+                }
             }
+            Bsdf::Phong { .. } => LobeClass::Glossy,
         }
     }
 }
+
+/// GGX roughness from which a microfacet surface counts as diffuse (`D`) in path classes: at
+/// α = 0.5 the lobe's half-width exceeds 25°, and its reflection no longer images its
+/// surroundings.
+pub const DIFFUSE_ALPHA: f32 = 0.5;
 
 #[cfg(test)]
 mod tests {
@@ -296,6 +308,15 @@ mod tests {
                     eta: 1.5,
                 },
                 LobeClass::Glossy,
+                false,
+            ),
+            (
+                Bsdf::RoughConductor {
+                    alpha: Vec2::new(0.5, 0.7),
+                    eta: Rgb::WHITE,
+                    k: Rgb::WHITE,
+                },
+                LobeClass::Diffuse,
                 false,
             ),
             (

@@ -1,0 +1,165 @@
+//! Path classes and the image layers they select: every contribution an integrator makes carries
+//! its Heckbert path string (`class`); a regular expression over those strings (`regex`) filters
+//! what an integrator renders (`paths: "LS+DE"`), and a [`Layers`] request splits the image into
+//! layers — by expression (the first that matches, plus a remainder) or by bounce count (the terms
+//! of the Neumann series) — that always sum to the full image.
+
+pub mod class;
+pub mod regex;
+
+pub use class::PathClass;
+pub use regex::{PathRegex, PathRegexError};
+
+use serde::{Deserialize, Serialize};
+
+/// Which layers an integrator writes besides the full image.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum Layers {
+    /// The full image only.
+    #[default]
+    None,
+    /// One layer per number of scattering vertices k = 0, 1, …: the terms gε, gMε, gMgMε, … of
+    /// the Neumann series. Up to `max_bounces` when it is set, otherwise 0…9 and a last layer for
+    /// 10 or more.
+    Bounces,
+    /// One layer per expression, holding the contributions whose path the expression matches
+    /// first, and a last layer, `rest`, for the contributions none matches.
+    Classes(Vec<String>),
+}
+
+/// Bounce layers of an unbounded integrator: 0 … UNBOUNDED_BOUNCE_LAYERS − 2, then the rest.
+const UNBOUNDED_BOUNCE_LAYERS: u32 = 11;
+
+/// Decides, per contribution, whether it is rendered and into which layer.
+#[derive(Clone, Debug)]
+pub struct Router {
+    filter: Option<PathRegex>,
+    split: Split,
+}
+
+#[derive(Clone, Debug)]
+enum Split {
+    None,
+    Bounces(u32),
+    Classes(Vec<PathRegex>),
+}
+
+impl Router {
+    /// The router of an integrator with `paths` (an expression, or `None` for all paths),
+    /// `layers` and `max_bounces`. Errors name the bad expression and the column of the fault.
+    pub fn new(
+        paths: Option<&str>,
+        layers: &Layers,
+        max_bounces: Option<u32>,
+    ) -> Result<Router, String> {
+        let filter = paths
+            .map(PathRegex::new)
+            .transpose()
+            .map_err(|e| format!("paths: {e}"))?;
+        let split = match layers {
+            Layers::None => Split::None,
+            Layers::Bounces => Split::Bounces(
+                max_bounces.map_or(UNBOUNDED_BOUNCE_LAYERS, |m| m.saturating_add(1).min(64)),
+            ),
+            Layers::Classes(exprs) => {
+                if exprs.is_empty() {
+                    return Err("layers: Classes needs at least one expression".into());
+                }
+                Split::Classes(
+                    exprs
+                        .iter()
+                        .map(|e| PathRegex::new(e))
+                        .collect::<Result<_, _>>()
+                        .map_err(|e| format!("layers: {e}"))?,
+                )
+            }
+        };
+        Ok(Router { filter, split })
+    }
+
+    /// Checks settings without keeping the router (for configuration parsing).
+    pub fn check(paths: Option<&str>, layers: &Layers) -> Result<(), String> {
+        Router::new(paths, layers, None).map(|_| ())
+    }
+
+    /// Number of layers besides the full image.
+    pub fn layer_count(&self) -> usize {
+        match &self.split {
+            Split::None => 0,
+            Split::Bounces(n) => *n as usize,
+            Split::Classes(r) => r.len() + 1,
+        }
+    }
+
+    /// Names of the layers, in order.
+    pub fn layer_names(&self) -> Vec<String> {
+        match &self.split {
+            Split::None => Vec::new(),
+            Split::Bounces(n) => (0..*n)
+                .map(|k| {
+                    if *n == UNBOUNDED_BOUNCE_LAYERS && k == n - 1 {
+                        format!("bounces {k}+")
+                    } else {
+                        format!("bounces {k}")
+                    }
+                })
+                .collect(),
+            Split::Classes(r) => r
+                .iter()
+                .map(|e| e.as_str().to_string())
+                .chain(["rest".to_string()])
+                .collect(),
+        }
+    }
+
+    /// `None` when the contribution of a path of class `class` is filtered out; otherwise its
+    /// layer (0 when there are no layers).
+    #[inline]
+    pub fn route(&self, class: &PathClass) -> Option<usize> {
+        if let Some(f) = &self.filter
+            && !f.matches(class)
+        {
+            return None;
+        }
+        Some(match &self.split {
+            Split::None => 0,
+            Split::Bounces(n) => (class.len() as usize).min(*n as usize - 1),
+            Split::Classes(r) => r.iter().position(|e| e.matches(class)).unwrap_or(r.len()),
+        })
+    }
+
+    /// Whether every path is rendered into the full image alone (no bookkeeping needed).
+    #[inline]
+    pub fn is_trivial(&self) -> bool {
+        self.filter.is_none() && matches!(self.split, Split::None)
+    }
+}
+
+/// A sample's contributions: `[0]` the full image, `[1 + l]` layer l.
+#[derive(Clone, Debug)]
+pub struct Deposit {
+    pub values: Vec<lightlab_core::Rgb>,
+}
+
+impl Deposit {
+    pub fn new(router: &Router) -> Deposit {
+        Deposit {
+            values: vec![lightlab_core::Rgb::BLACK; 1 + router.layer_count()],
+        }
+    }
+
+    pub fn clear(&mut self) {
+        self.values.fill(lightlab_core::Rgb::BLACK);
+    }
+
+    /// Adds `c`, made by a path of class `class`, where `router` sends it.
+    #[inline]
+    pub fn add(&mut self, router: &Router, class: &PathClass, c: lightlab_core::Rgb) {
+        if let Some(layer) = router.route(class) {
+            self.values[0] += c;
+            if self.values.len() > 1 {
+                self.values[1 + layer] += c;
+            }
+        }
+    }
+}
