@@ -142,10 +142,13 @@ fn point_light_irradiance_estimate_converges_with_kernel_bias() {
         for kernel in [Kernel::Uniform, Kernel::Cone, Kernel::Epanechnikov] {
             for &(x, z) in &points {
                 let g = gather_at(x, z);
-                let (sum, radius_sq) =
-                    map.estimate(&g, Search::Radius { radius_sq: r * r }, kernel, |_| true);
+                let mut l = 0.0f64;
+                let radius_sq =
+                    map.estimate(&g, Search::Radius { radius_sq: r * r }, kernel, |_, c| {
+                        l += c.r as f64
+                    });
                 // L = Σ K f Φ / (π r²) with f = 1/π, so E = π L = Σ K Φ / r².
-                let e = sum.r as f64 / radius_sq as f64;
+                let e = std::f64::consts::PI * l;
                 // Poisson noise of the sum: Σ (K f Φ)² estimated from the same photons.
                 let mut sq = 0.0f64;
                 map.within(g.p, radius_sq, |ph, d2| {

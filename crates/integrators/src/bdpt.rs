@@ -24,7 +24,8 @@
 
 use crate::config::{BdptConfig, Mis};
 use crate::film::{Film, PixelSums};
-use crate::render::Counters;
+use crate::paths::{PathClass, Router};
+use crate::render::{Counters, named};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::{Vec2, Vec3};
 use lightlab_core::{Progress, Ray, Rgb, TransportMode};
@@ -69,6 +70,8 @@ struct Vertex {
     delta: bool,
     /// An emitter at infinity (environment): `ng` is the direction the light travels.
     infinite: bool,
+    /// Scattering vertices of the subpath from its origin up to and including this one.
+    class: PathClass,
 }
 
 impl Vertex {
@@ -86,6 +89,7 @@ impl Vertex {
             pdf_rev: 0.0,
             delta: false,
             infinite: false,
+            class: PathClass::EMPTY,
         }
     }
 
@@ -233,11 +237,14 @@ fn direction(from: &Vertex, to: &Vertex) -> Vec3 {
 
 pub struct Bdpt {
     config: BdptConfig,
+    router: Router,
 }
 
 impl Bdpt {
     pub fn new(config: BdptConfig) -> Self {
-        Bdpt { config }
+        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
+            .expect("BDPT settings are validated when parsed");
+        Bdpt { config, router }
     }
 
     /// Extends `path` by a random walk from `ray` (pbrt-v4 `RandomWalk`), at most `max_vertices`
@@ -265,6 +272,7 @@ impl Bdpt {
                     && let Some(&env) = scene.environment_lights().first()
                 {
                     let mut v = Vertex::new(Kind::Light { light: env }, ray.o + ray.d, beta);
+                    v.class = path.last().expect("a walk starts from a vertex").class;
                     v.infinite = true;
                     v.ng = ray.d.normalize();
                     v.pdf_fwd = pdf_fwd_w;
@@ -281,6 +289,7 @@ impl Bdpt {
             v.sb = Some(sb);
             v.emitter = hit.light;
             let prev = *path.last().expect("a walk starts from a vertex");
+            v.class = prev.class.push(bsdf.lobe_class());
             v.pdf_fwd = prev.convert_density(pdf_fwd_w, &v);
             path.push(v);
             added += 1;
@@ -693,8 +702,10 @@ struct TileResult {
     x0: u32,
     y0: u32,
     w: u32,
+    /// Per pixel: the full image, then each layer.
     sums: Vec<PixelSums>,
-    splats: Vec<(u32, Rgb)>,
+    /// (pixel, layer, value).
+    splats: Vec<(u32, u32, Rgb)>,
     counters: Counters,
 }
 
@@ -719,13 +730,16 @@ impl SamplerVisitor for RenderWith<'_> {
             .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
             .collect();
         progress.start(width as u64 * height as u64);
+        let router = &bdpt.router;
+        let slots = 1 + router.layer_count();
         let results: Vec<TileResult> = tiles
             .par_iter()
             .map(|&(x0, y0)| {
                 let (w, h) = (TILE.min(width - x0), TILE.min(height - y0));
                 let mut counters = Counters::default();
-                let mut sums = vec![PixelSums::default(); (w * h) as usize];
+                let mut sums = vec![PixelSums::default(); (w * h) as usize * slots];
                 let mut splats = Vec::new();
+                let mut l = vec![Rgb::BLACK; slots];
                 let mut camera = Vec::new();
                 let mut light = Vec::new();
                 for y in 0..h {
@@ -759,7 +773,7 @@ impl SamplerVisitor for RenderWith<'_> {
                                 &mut light,
                                 &mut counters,
                             );
-                            let mut l = Rgb::BLACK;
+                            l.fill(Rgb::BLACK);
                             for t in 1..=camera.len() {
                                 let (u_light, u_point, u_lens) = (
                                     light_sampler.next_1d(),
@@ -775,6 +789,16 @@ impl SamplerVisitor for RenderWith<'_> {
                                     {
                                         continue;
                                     }
+                                    // The joined path's class, light first (for s = 0 the last
+                                    // camera vertex is the emitter, not a scattering vertex).
+                                    let class = match s {
+                                        0 if t >= 2 => camera[t - 2].class.reversed(),
+                                        0 => PathClass::EMPTY,
+                                        _ => light[s - 1].class.then(camera[t - 1].class.reversed()),
+                                    };
+                                    let Some(layer) = router.route(&class) else {
+                                        continue;
+                                    };
                                     let Some((c, raster)) = bdpt.connect(
                                         scene,
                                         &light,
@@ -800,13 +824,21 @@ impl SamplerVisitor for RenderWith<'_> {
                                                 (r.x as u32).min(width - 1),
                                                 (r.y as u32).min(height - 1),
                                             );
-                                            splats.push((py * width + px, c));
+                                            splats.push((py * width + px, layer as u32, c));
                                         }
-                                        None => l += c,
+                                        None => {
+                                            l[0] += c;
+                                            if slots > 1 {
+                                                l[1 + layer] += c;
+                                            }
+                                        }
                                     }
                                 }
                             }
-                            sums[(y * w + x) as usize].add([l.r as f64, l.g as f64, l.b as f64]);
+                            let k = (y * w + x) as usize * slots;
+                            for (sum, v) in sums[k..k + slots].iter_mut().zip(&l) {
+                                sum.add([v.r as f64, v.g as f64, v.b as f64]);
+                            }
                         }
                     }
                 }
@@ -825,29 +857,43 @@ impl SamplerVisitor for RenderWith<'_> {
         // Own samples per pixel, and splats (t = 1) as a light-tracing estimate over all paths.
         let pixels = width as usize * height as usize;
         let paths = pixels as u64 * budget.spp as u64;
-        let mut film = Film::new(width, height);
-        let mut splat_sum = vec![[0.0f64; 3]; pixels];
-        let mut splat_sq = vec![[0.0f64; 3]; pixels];
+        let mut films: Vec<Film> = (0..slots).map(|_| Film::new(width, height)).collect();
+        let mut splat_sum = vec![[0.0f64; 3]; pixels * slots];
+        let mut splat_sq = vec![[0.0f64; 3]; pixels * slots];
         let mut counters = Counters::default();
         let scale = pixels as f64;
         for r in &results {
             counters.merge(&r.counters);
-            for (k, s) in r.sums.iter().enumerate() {
+            for (k, s) in r.sums.chunks(slots).enumerate() {
                 let (x, y) = (r.x0 + k as u32 % r.w, r.y0 + k as u32 / r.w);
-                film.pixels[(y * width + x) as usize] = *s;
+                for (film, s) in films.iter_mut().zip(s) {
+                    film.pixels[(y * width + x) as usize] = *s;
+                }
             }
-            for &(pixel, c) in &r.splats {
+            for &(pixel, layer, c) in &r.splats {
                 let v = [c.r as f64 * scale, c.g as f64 * scale, c.b as f64 * scale];
-                for k in 0..3 {
-                    splat_sum[pixel as usize][k] += v[k];
-                    splat_sq[pixel as usize][k] += v[k] * v[k];
+                let base = pixel as usize * slots;
+                let targets: &[usize] = if slots > 1 {
+                    &[base, base + 1 + layer as usize]
+                } else {
+                    &[base]
+                };
+                for &i in targets {
+                    for k in 0..3 {
+                        splat_sum[i][k] += v[k];
+                        splat_sq[i][k] += v[k] * v[k];
+                    }
                 }
             }
         }
-        for (i, p) in film.pixels.iter_mut().enumerate() {
-            let splat = PixelSums::from_sums(splat_sum[i], splat_sq[i], paths);
-            *p = p.plus_independent(&splat);
+        for (slot, film) in films.iter_mut().enumerate() {
+            for (i, p) in film.pixels.iter_mut().enumerate() {
+                let j = i * slots + slot;
+                let splat = PixelSums::from_sums(splat_sum[j], splat_sq[j], paths);
+                *p = p.plus_independent(&splat);
+            }
         }
+        let film = films.remove(0);
         let wall = start.elapsed().as_secs_f64();
         let stats = RenderStats::new(
             "Bdpt",
@@ -859,7 +905,11 @@ impl SamplerVisitor for RenderWith<'_> {
             &counters,
             &["connection", "splat"],
         );
-        RenderOutput { film, stats }
+        RenderOutput {
+            film,
+            layers: named(router.layer_names(), films),
+            stats,
+        }
     }
 }
 
@@ -924,6 +974,8 @@ mod tests {
                 min_bounces: 0,
                 russian_roulette: None,
                 sampler: Default::default(),
+                paths: None,
+                layers: Default::default(),
             });
             let mut counters = Counters::default();
             let mut checked = 0;

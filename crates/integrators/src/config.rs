@@ -8,6 +8,7 @@ use crate::photon::config::{PhotonMapConfig, ProgressiveConfig};
 use crate::photon::pm::PhotonMapper;
 use crate::photon::progressive::{Progressive, Variant};
 use lightlab_samplers::SamplerConfig;
+use crate::paths::{Layers, Router};
 use serde::{Deserialize, Serialize};
 
 /// Which integrator to run and with what settings, e.g. `Path(max_bounces: 8, strategy: Mis)`.
@@ -46,6 +47,8 @@ pub struct BdptConfig {
     pub russian_roulette: Option<u32>,
     pub sampler: SamplerConfig,
     pub mis: Mis,
+    pub paths: Option<String>,
+    pub layers: Layers,
 }
 
 /// How bidirectional path tracing weights its strategies (Veach 1997, ch. 9).
@@ -90,6 +93,14 @@ pub struct BdptConfigRaw {
     /// Strategy weights: `Balance`, `Power`, `Uniform` or `Only(s: S, t: T)`. Default `Balance`.
     #[serde(default)]
     pub mis: Mis,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
+    #[serde(default)]
+    pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+    #[serde(default)]
+    pub layers: Layers,
 }
 
 impl TryFrom<BdptConfigRaw> for BdptConfig {
@@ -103,12 +114,15 @@ impl TryFrom<BdptConfigRaw> for BdptConfig {
                 "Only(s: {s}, t: 0) is not a strategy: paths must reach the camera, so t ≥ 1"
             ));
         }
+        Router::check(r.paths.as_deref(), &r.layers)?;
         Ok(BdptConfig {
             max_bounces: r.max_bounces,
             min_bounces: r.min_bounces,
             russian_roulette: r.russian_roulette,
             sampler: r.sampler,
             mis: r.mis,
+            paths: r.paths,
+            layers: r.layers,
         })
     }
 }
@@ -121,6 +135,8 @@ impl From<BdptConfig> for BdptConfigRaw {
             russian_roulette: c.russian_roulette,
             sampler: c.sampler,
             mis: c.mis,
+            paths: c.paths,
+            layers: c.layers,
         }
     }
 }
@@ -136,6 +152,8 @@ pub struct LightConfig {
     pub max_bounces: Option<u32>,
     pub min_bounces: u32,
     pub russian_roulette: Option<u32>,
+    pub paths: Option<String>,
+    pub layers: Layers,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -151,16 +169,27 @@ pub struct LightConfigRaw {
     /// Russian roulette from this many scattering vertices on; `None` turns it off. Default `Some(3)`.
     #[serde(default = "default_rr")]
     pub russian_roulette: Option<u32>,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
+    #[serde(default)]
+    pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+    #[serde(default)]
+    pub layers: Layers,
 }
 
 impl TryFrom<LightConfigRaw> for LightConfig {
     type Error = String;
     fn try_from(r: LightConfigRaw) -> Result<Self, String> {
         check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
+        Router::check(r.paths.as_deref(), &r.layers)?;
         Ok(LightConfig {
             max_bounces: r.max_bounces,
             min_bounces: r.min_bounces,
             russian_roulette: r.russian_roulette,
+            paths: r.paths,
+            layers: r.layers,
         })
     }
 }
@@ -171,6 +200,8 @@ impl From<LightConfig> for LightConfigRaw {
             max_bounces: c.max_bounces,
             min_bounces: c.min_bounces,
             russian_roulette: c.russian_roulette,
+            paths: c.paths,
+            layers: c.layers,
         }
     }
 }
@@ -209,6 +240,8 @@ pub struct PathConfig {
     pub strategy: Strategy,
     pub shadows: bool,
     pub sampler: SamplerConfig,
+    pub paths: Option<String>,
+    pub layers: Layers,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -237,6 +270,14 @@ pub struct PathConfigRaw {
     /// or `Sobol` (see `lightlab_samplers::SamplerConfig`). Default `Independent`.
     #[serde(default)]
     pub sampler: SamplerConfig,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
+    #[serde(default)]
+    pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+    #[serde(default)]
+    pub layers: Layers,
 }
 
 fn default_rr() -> Option<u32> {
@@ -267,6 +308,7 @@ impl TryFrom<PathConfigRaw> for PathConfig {
     type Error = String;
     fn try_from(r: PathConfigRaw) -> Result<Self, String> {
         check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
+        Router::check(r.paths.as_deref(), &r.layers)?;
         Ok(PathConfig {
             max_bounces: r.max_bounces,
             min_bounces: r.min_bounces,
@@ -274,6 +316,8 @@ impl TryFrom<PathConfigRaw> for PathConfig {
             strategy: r.strategy,
             shadows: r.shadows,
             sampler: r.sampler,
+            paths: r.paths,
+            layers: r.layers,
         })
     }
 }
@@ -287,6 +331,8 @@ impl From<PathConfig> for PathConfigRaw {
             strategy: c.strategy,
             shadows: c.shadows,
             sampler: c.sampler,
+            paths: c.paths,
+            layers: c.layers,
         }
     }
 }
@@ -355,7 +401,7 @@ mod tests {
         let l = IntegratorConfig::from_ron("Light(max_bounces: 2)").unwrap();
         assert_eq!(
             l.to_ron(),
-            "Light(max_bounces: 2, min_bounces: 0, russian_roulette: 3)"
+            "Light(max_bounces: 2, min_bounces: 0, russian_roulette: 3, paths: None, layers: Off)"
         );
         assert_eq!(IntegratorConfig::from_ron(&l.to_ron()).unwrap(), l);
         for text in [

@@ -22,7 +22,8 @@
 
 use crate::config::LightConfig;
 use crate::film::{Film, PixelSums};
-use crate::render::Counters;
+use crate::paths::{PathClass, Router};
+use crate::render::{Counters, named};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, Rgb, TransportMode};
@@ -42,17 +43,21 @@ const CHUNKS_PER_BATCH: u64 = 64;
 
 pub struct LightTracer {
     config: LightConfig,
+    router: Router,
 }
 
-/// One contribution to pixel `pixel`.
+/// One contribution to pixel `pixel`, of layer `layer`.
 struct Splat {
     pixel: u32,
+    layer: u32,
     value: Rgb,
 }
 
 impl LightTracer {
     pub fn new(config: LightConfig) -> Self {
-        LightTracer { config }
+        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
+            .expect("light settings are validated when parsed");
+        LightTracer { config, router }
     }
 
     /// Connects a vertex to the camera; `value_toward` gives what leaves the vertex toward the lens
@@ -64,10 +69,14 @@ impl LightTracer {
         p_error: glam::Vec3,
         n: glam::Vec3,
         u_lens: Vec2,
+        class: &PathClass,
         splats: &mut Vec<Splat>,
         counters: &mut Counters,
         value_toward: impl FnOnce(glam::Vec3) -> (Rgb, f32),
     ) {
+        let Some(layer) = self.router.route(class) else {
+            return;
+        };
         let Some(cs) = scene.camera.sample_wi(p, u_lens) else {
             return;
         };
@@ -92,6 +101,7 @@ impl LightTracer {
         let (w, x, y) = (scene.camera.width, cs.raster.x as u32, cs.raster.y as u32);
         splats.push(Splat {
             pixel: y.min(scene.camera.height - 1) * w + x.min(w - 1),
+            layer: layer as u32,
             value: c,
         });
     }
@@ -133,6 +143,7 @@ impl LightTracer {
                     em.p_error,
                     em.n,
                     u_lens,
+                    &PathClass::EMPTY,
                     splats,
                     counters,
                     |wi| {
@@ -162,6 +173,8 @@ impl LightTracer {
             spawn_ray(em.p, em.p_error, em.n, em.dir)
         };
         let mut depth = 0u32;
+        // Scattering vertices so far, light first.
+        let mut class = PathClass::EMPTY;
         loop {
             counters.rays += 1;
             let Some(hit) = scene.intersect(&ray) else {
@@ -174,6 +187,7 @@ impl LightTracer {
             let wo = -ray.d.normalize();
             let bsdf = scene.materials[hit.material as usize];
             let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
+            class = class.push(bsdf.lobe_class());
             let u_lens = sampler.next_2d();
             if !bsdf.is_delta() && depth >= cfg.min_bounces {
                 self.connect(
@@ -182,6 +196,7 @@ impl LightTracer {
                     hit.p_error,
                     hit.ng,
                     u_lens,
+                    &class,
                     splats,
                     counters,
                     |wi| {
@@ -227,8 +242,10 @@ impl Integrator for LightTracer {
         let pixels = width as u64 * height as u64;
         let paths = pixels * budget.spp as u64;
         let chunks = paths.div_ceil(CHUNK);
-        let mut sum = vec![[0.0f64; 3]; pixels as usize];
-        let mut sum_sq = vec![[0.0f64; 3]; pixels as usize];
+        // Per pixel: the full image, then each layer.
+        let slots = 1 + self.router.layer_count();
+        let mut sum = vec![[0.0f64; 3]; pixels as usize * slots];
+        let mut sum_sq = vec![[0.0f64; 3]; pixels as usize * slots];
         let mut counters = Counters::default();
         // Sample k of pixel j is P·c_k (zero where light path k does not land in j).
         let scale = pixels as f64;
@@ -256,18 +273,29 @@ impl Integrator for LightTracer {
                         s.value.g as f64 * scale,
                         s.value.b as f64 * scale,
                     ];
-                    let (a, b) = (&mut sum[s.pixel as usize], &mut sum_sq[s.pixel as usize]);
-                    for k in 0..3 {
-                        a[k] += v[k];
-                        b[k] += v[k] * v[k];
+                    let base = s.pixel as usize * slots;
+                    let targets: &[usize] = if slots > 1 {
+                        &[base, base + 1 + s.layer as usize]
+                    } else {
+                        &[base]
+                    };
+                    for &i in targets {
+                        for k in 0..3 {
+                            sum[i][k] += v[k];
+                            sum_sq[i][k] += v[k] * v[k];
+                        }
                     }
                 }
             }
         }
-        let mut film = Film::new(width, height);
-        for (i, p) in film.pixels.iter_mut().enumerate() {
-            *p = PixelSums::from_sums(sum[i], sum_sq[i], paths);
+        let mut films: Vec<Film> = (0..slots).map(|_| Film::new(width, height)).collect();
+        for (slot, film) in films.iter_mut().enumerate() {
+            for (i, p) in film.pixels.iter_mut().enumerate() {
+                let j = i * slots + slot;
+                *p = PixelSums::from_sums(sum[j], sum_sq[j], paths);
+            }
         }
+        let film = films.remove(0);
         let wall = start.elapsed().as_secs_f64();
         let stats = RenderStats::new(
             "Light",
@@ -279,6 +307,10 @@ impl Integrator for LightTracer {
             &counters,
             &["camera_connection"],
         );
-        RenderOutput { film, stats }
+        RenderOutput {
+            film,
+            layers: named(self.router.layer_names(), films),
+            stats,
+        }
     }
 }

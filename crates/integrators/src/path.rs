@@ -13,7 +13,8 @@
 use crate::config::{PathConfig, Strategy};
 use crate::film::PixelSums;
 use crate::nee::sample_direct;
-use crate::render::{Counters, render_tiles};
+use crate::paths::{Deposit, PathClass, Router};
+use crate::render::{Counters, named, render_tiles};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::{Vec2, Vec3};
 use lightlab_core::{INV_2PI, INV_4PI, Progress, Rgb, TransportMode};
@@ -30,11 +31,14 @@ const NEXT_EVENT: usize = 1;
 
 pub struct PathTracer {
     config: PathConfig,
+    router: Router,
 }
 
 impl PathTracer {
     pub fn new(config: PathConfig) -> Self {
-        PathTracer { config }
+        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
+            .expect("path settings are validated when parsed");
+        PathTracer { config, router }
     }
 
     /// Whether next-event estimation is done at non-specular vertices.
@@ -62,19 +66,23 @@ impl PathTracer {
         }
     }
 
-    /// One camera path through raster position `film`; returns its radiance estimate.
+    /// One camera path through raster position `film`: adds its radiance estimate to `l`, by path
+    /// class.
     fn li<S: Sampler>(
         &self,
         scene: &Scene,
         film: Vec2,
         sampler: &mut S,
+        l: &mut Deposit,
         counters: &mut Counters,
-    ) -> Rgb {
+    ) {
         let cfg = &self.config;
         let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX);
         let u_lens = sampler.next_2d();
         let mut ray = scene.camera.generate_ray(film, u_lens);
-        let mut l = Rgb::BLACK;
+        let router = &self.router;
+        // Scattering vertices so far, camera first.
+        let mut class = PathClass::EMPTY;
         let mut beta = Rgb::WHITE;
         // Product of η² over refractions so far, which Russian roulette divides out (pbrt-v4 §13.4.4).
         let mut eta_scale = 1.0f32;
@@ -95,7 +103,7 @@ impl PathTracer {
                             .map(|&i| scene.light_pmf(i) * INV_4PI)
                             .sum()
                     });
-                    add(&mut l, beta * le * w, EMISSION, counters);
+                    add(l, router, &class.reversed(), beta * le * w, EMISSION, counters);
                 }
                 break;
             };
@@ -114,7 +122,7 @@ impl PathTracer {
                         scene.light_pmf(hit.light)
                             * shapes[hit.shape as usize].pdf_solid_angle(prev_p, hit.p, hit.ng)
                     });
-                    add(&mut l, beta * le * w, EMISSION, counters);
+                    add(l, router, &class.reversed(), beta * le * w, EMISSION, counters);
                 }
             }
             if depth >= max_bounces {
@@ -123,6 +131,7 @@ impl PathTracer {
             let bsdf = scene.materials[hit.material as usize];
             let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
             let delta = bsdf.is_delta();
+            class = class.push(bsdf.lobe_class());
 
             // Next-event estimation: a path of depth + 1 scattering vertices ending on a light.
             let (u_light, u_light_point) = (sampler.next_1d(), sampler.next_2d());
@@ -145,7 +154,14 @@ impl PathTracer {
                 } else {
                     power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
                 };
-                add(&mut l, beta * d.value * w, NEXT_EVENT, counters);
+                add(
+                    l,
+                    router,
+                    &class.reversed(),
+                    beta * d.value * w,
+                    NEXT_EVENT,
+                    counters,
+                );
             }
 
             // Continue the path.
@@ -183,7 +199,6 @@ impl PathTracer {
             }
             ray = spawn_ray(hit.p, hit.p_error, hit.ng, step.wi);
         }
-        l
     }
 }
 
@@ -231,11 +246,19 @@ fn uniform_direction(sb: &SurfaceBsdf, wo: Vec3, u: Vec2) -> Option<Step> {
     })
 }
 
-/// Adds a contribution unless it is NaN or infinite, which is counted instead (design.md).
+/// Adds a contribution of a path of class `class` unless it is NaN or infinite, which is counted
+/// instead (design.md).
 #[inline]
-fn add(l: &mut Rgb, c: Rgb, technique: usize, counters: &mut Counters) {
+fn add(
+    l: &mut Deposit,
+    router: &Router,
+    class: &PathClass,
+    c: Rgb,
+    technique: usize,
+    counters: &mut Counters,
+) {
     if c.is_finite() {
-        *l += c;
+        l.add(router, class, c);
     } else {
         counters.non_finite[technique] += 1;
     }
@@ -284,18 +307,23 @@ impl SamplerVisitor for RenderWith<'_> {
         } = self;
         let cam = &scene.camera;
         let (width, height) = (cam.width, cam.height);
-        let (film, counters, wall) = render_tiles(
+        let (film, layers, counters, wall) = render_tiles(
             width,
             height,
+            tracer.router.layer_count(),
             progress,
-            |x, y, sums: &mut PixelSums, counters| {
+            |x, y, sums: &mut [PixelSums], counters| {
                 let pixel = (y as u64) * width as u64 + x as u64;
                 let mut sampler = prototype.clone();
+                let mut l = Deposit::new(&tracer.router);
                 for s in 0..budget.spp {
                     sampler.start_pixel_sample(seed, pixel, s as u64);
                     let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                    let l = tracer.li(scene, film, &mut sampler, counters);
-                    sums.add([l.r as f64, l.g as f64, l.b as f64]);
+                    l.clear();
+                    tracer.li(scene, film, &mut sampler, &mut l, counters);
+                    for (sum, v) in sums.iter_mut().zip(&l.values) {
+                        sum.add([v.r as f64, v.g as f64, v.b as f64]);
+                    }
                 }
             },
         );
@@ -310,6 +338,10 @@ impl SamplerVisitor for RenderWith<'_> {
             &counters,
             &["emission", "next_event"],
         );
-        RenderOutput { film, stats }
+        RenderOutput {
+            film,
+            layers: named(tracer.router.layer_names(), layers),
+            stats,
+        }
     }
 }

@@ -78,7 +78,10 @@ impl RenderStats {
 }
 
 pub struct RenderOutput {
+    /// The full image (only the paths the integrator's `paths` expression selects, if it has one).
     pub film: Film,
+    /// The layers the integrator's `layers` setting asked for, named; they sum to `film`.
+    pub layers: Vec<(String, Film)>,
     pub stats: RenderStats,
 }
 
@@ -103,19 +106,22 @@ impl Counters {
 const TILE: u32 = 16;
 
 /// Runs `pixel(x, y, sums, counters)` for every pixel, tiles in parallel, and returns the film, the
-/// summed counters and the wall time. Each pixel's samples are summed in sample order by one thread,
-/// so the film is bit-identical whatever the thread count.
+/// `layers` layer films, the summed counters and the wall time. `sums[0]` is the pixel of the full
+/// image, `sums[1 + l]` its pixel in layer l. Each pixel's samples are summed in sample order by one
+/// thread, so the films are bit-identical whatever the thread count.
 pub(crate) fn render_tiles<F>(
     width: u32,
     height: u32,
+    layers: usize,
     progress: &dyn Progress,
     pixel: F,
-) -> (Film, Counters, f64)
+) -> (Film, Vec<Film>, Counters, f64)
 where
-    F: Fn(u32, u32, &mut PixelSums, &mut Counters) + Sync,
+    F: Fn(u32, u32, &mut [PixelSums], &mut Counters) + Sync,
 {
     use rayon::prelude::*;
     let start = Instant::now();
+    let per_pixel = 1 + layers;
     let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
         .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
@@ -125,13 +131,14 @@ where
         .map(|&(x0, y0)| {
             let (w, h) = (TILE.min(width - x0), TILE.min(height - y0));
             let mut counters = Counters::default();
-            let mut sums = vec![PixelSums::default(); (w * h) as usize];
+            let mut sums = vec![PixelSums::default(); (w * h) as usize * per_pixel];
             for y in 0..h {
                 for x in 0..w {
+                    let k = (y * w + x) as usize * per_pixel;
                     pixel(
                         x0 + x,
                         y0 + y,
-                        &mut sums[(y * w + x) as usize],
+                        &mut sums[k..k + per_pixel],
                         &mut counters,
                     );
                 }
@@ -140,15 +147,23 @@ where
             (sums, counters)
         })
         .collect();
-    let mut film = Film::new(width, height);
+    let mut films: Vec<Film> = (0..per_pixel).map(|_| Film::new(width, height)).collect();
     let mut counters = Counters::default();
     for (&(x0, y0), (sums, c)) in tiles.iter().zip(&done) {
         let w = TILE.min(width - x0);
-        for (k, s) in sums.iter().enumerate() {
+        for (k, s) in sums.chunks(per_pixel).enumerate() {
             let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
-            film.pixels[(y * width + x) as usize] = *s;
+            for (film, s) in films.iter_mut().zip(s) {
+                film.pixels[(y * width + x) as usize] = *s;
+            }
         }
         counters.merge(c);
     }
-    (film, counters, start.elapsed().as_secs_f64())
+    let film = films.remove(0);
+    (film, films, counters, start.elapsed().as_secs_f64())
+}
+
+/// Names the layer films.
+pub(crate) fn named(names: Vec<String>, films: Vec<Film>) -> Vec<(String, Film)> {
+    names.into_iter().zip(films).collect()
 }

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 pub enum Layers {
     /// The full image only.
     #[default]
-    None,
+    Off,
     /// One layer per number of scattering vertices k = 0, 1, …: the terms gε, gMε, gMgMε, … of
     /// the Neumann series. Up to `max_bounces` when it is set, otherwise 0…9 and a last layer for
     /// 10 or more.
@@ -57,7 +57,7 @@ impl Router {
             .transpose()
             .map_err(|e| format!("paths: {e}"))?;
         let split = match layers {
-            Layers::None => Split::None,
+            Layers::Off => Split::None,
             Layers::Bounces => Split::Bounces(
                 max_bounces.map_or(UNBOUNDED_BOUNCE_LAYERS, |m| m.saturating_add(1).min(64)),
             ),

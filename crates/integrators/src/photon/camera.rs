@@ -10,6 +10,7 @@
 
 use super::map::GatherPoint;
 use crate::nee::sample_direct;
+use crate::paths::{Deposit, PathClass, Router};
 use crate::render::Counters;
 use glam::Vec2;
 use lightlab_core::{INV_4PI, Rgb, TransportMode};
@@ -44,6 +45,8 @@ pub struct VisiblePoint {
     /// Scattering vertices from the camera, the visible point included (d ≥ 1): photons of k
     /// bounces gathered here make paths of k + d − 1 scattering vertices.
     pub depth: u32,
+    /// Classes of the camera path's scattering vertices before the visible point, camera first.
+    pub eye: PathClass,
 }
 
 impl VisiblePoint {
@@ -58,26 +61,32 @@ impl VisiblePoint {
     }
 }
 
-/// What a camera walk found: radiance already estimated (emission and direct light), and the
-/// visible point, if the path reached one.
-pub struct WalkResult {
-    pub l: Rgb,
-    pub visible: Option<VisiblePoint>,
+impl VisiblePoint {
+    /// The class of a photon's path completed through this point to the camera, light first.
+    #[inline]
+    pub fn class_with(&self, photon: &PathClass) -> PathClass {
+        photon.then(self.eye.reversed())
+    }
 }
 
-/// Traces the camera ray through raster position `film`. `sampler` drives the path (lens, BSDF
-/// and roulette choices); `lights` drives next-event estimation, so that progressive photon
-/// mapping can keep a path fixed while its light samples change.
+/// Traces the camera ray through raster position `film`, adds the radiance it estimates on the
+/// way (emission and direct light) to `l` as `router` sends it, and returns the visible point, if
+/// the path reached one. `sampler` drives the path (lens, BSDF and roulette choices); `lights`
+/// drives next-event estimation, so that progressive photon mapping can keep a path fixed while
+/// its light samples change.
 pub fn walk<S: Sampler, T: Sampler>(
     scene: &Scene,
     cfg: &Walk,
+    router: &Router,
     film: Vec2,
     sampler: &mut S,
     lights: &mut T,
+    l: &mut Deposit,
     counters: &mut Counters,
-) -> WalkResult {
+) -> Option<VisiblePoint> {
     let mut ray = scene.camera.generate_ray(film, sampler.next_2d());
-    let mut l = Rgb::BLACK;
+    // Scattering vertices so far, camera first.
+    let mut class = PathClass::EMPTY;
     let mut beta = Rgb::WHITE;
     let mut eta_scale = 1.0f32;
     let mut depth = 0u32;
@@ -99,9 +108,9 @@ pub fn walk<S: Sampler, T: Sampler>(
                         .sum();
                     power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf)
                 });
-                add(&mut l, beta * le * w, counters);
+                add(l, router, &class, beta * le * w, counters);
             }
-            return WalkResult { l, visible: None };
+            return None;
         };
         let wo = -ray.d.normalize();
         if hit.light != NO_LIGHT
@@ -119,23 +128,23 @@ pub fn walk<S: Sampler, T: Sampler>(
                         * shapes[hit.shape as usize].pdf_solid_angle(prev_p, hit.p, hit.ng);
                     power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf)
                 });
-                add(&mut l, beta * le * w, counters);
+                add(l, router, &class, beta * le * w, counters);
             }
         }
         if depth >= cfg.max_bounces {
-            return WalkResult { l, visible: None };
+            return None;
         }
         let bsdf = scene.materials[hit.material as usize];
         let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
-        let class = bsdf.lobe_class();
-        let gathers = match class {
+        let class_here = bsdf.lobe_class();
+        let gathers = match class_here {
             LobeClass::Specular => false,
             LobeClass::Glossy => !cfg.trace_glossy,
             LobeClass::Diffuse => true,
         };
         let (u_light, u_point) = (lights.next_1d(), lights.next_2d());
         if cfg.direct
-            && class != LobeClass::Specular
+            && class_here != LobeClass::Specular
             && depth + 1 >= cfg.min_bounces
             && let Some(d) = sample_direct(scene, &hit, &sb, wo, u_light, u_point, true, counters)
         {
@@ -144,10 +153,10 @@ pub fn walk<S: Sampler, T: Sampler>(
             } else {
                 power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
             };
-            add(&mut l, beta * d.value * w, counters);
+            add(l, router, &class.push(class_here), beta * d.value * w, counters);
         }
         if gathers {
-            let visible = VisiblePoint {
+            return Some(VisiblePoint {
                 gather: GatherPoint {
                     p: hit.p,
                     wo,
@@ -156,15 +165,13 @@ pub fn walk<S: Sampler, T: Sampler>(
                 hit,
                 beta,
                 depth: depth + 1,
-            };
-            return WalkResult {
-                l,
-                visible: Some(visible),
-            };
+                eye: class,
+            });
         }
+        class = class.push(class_here);
         let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
         let Some(s) = sb.sample(wo, u_lobe, u_dir, TransportMode::Radiance) else {
-            return WalkResult { l, visible: None };
+            return None;
         };
         beta *= s.weight;
         if s.transmission {
@@ -178,7 +185,7 @@ pub fn walk<S: Sampler, T: Sampler>(
         {
             let survive = (beta.max_component() * eta_scale).min(1.0);
             if !(u_rr < survive) {
-                return WalkResult { l, visible: None };
+                return None;
             }
             beta /= survive;
         }
@@ -186,10 +193,11 @@ pub fn walk<S: Sampler, T: Sampler>(
     }
 }
 
+/// Adds a contribution of the camera-first class `eye` unless it is not finite (counted).
 #[inline]
-fn add(l: &mut Rgb, c: Rgb, counters: &mut Counters) {
+fn add(l: &mut Deposit, router: &Router, eye: &PathClass, c: Rgb, counters: &mut Counters) {
     if c.is_finite() {
-        *l += c;
+        l.add(router, &eye.reversed(), c);
     } else {
         counters.non_finite[CAMERA] += 1;
     }

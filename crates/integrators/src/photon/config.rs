@@ -1,6 +1,7 @@
 //! Settings of the photon-mapping integrators, as RON (`PhotonMap(...)`, `Ppm(...)`, `Sppm(...)`).
 
 use super::map::{Kernel, Search};
+use crate::paths::{Layers, Router};
 use serde::{Deserialize, Serialize};
 
 /// A length given absolutely (scene units) or as a fraction of the radius of the scene's bounding
@@ -105,6 +106,8 @@ pub struct PhotonMapConfig {
     pub caustics: bool,
     pub indirect: Indirect,
     pub trace_glossy: bool,
+    pub paths: Option<String>,
+    pub layers: Layers,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -150,6 +153,14 @@ pub struct PhotonMapConfigRaw {
     /// photons on them. Default true.
     #[serde(default = "yes")]
     pub trace_glossy: bool,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
+    #[serde(default)]
+    pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+    #[serde(default)]
+    pub layers: Layers,
 }
 
 /// Settings of progressive photon mapping (`Ppm`: visible points fixed, Hachisuka et al. 2008;
@@ -171,6 +182,8 @@ pub struct ProgressiveConfig {
     pub update: RadiusUpdate,
     pub kernel: Kernel,
     pub trace_glossy: bool,
+    pub paths: Option<String>,
+    pub layers: Layers,
 }
 
 /// How the gather radius shrinks from pass to pass; both give r_i² ∝ i^(α−1) (see `progressive`).
@@ -215,6 +228,14 @@ pub struct ProgressiveConfigRaw {
     /// Trace camera paths through glossy surfaces instead of gathering on them. Default true.
     #[serde(default = "yes")]
     pub trace_glossy: bool,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
+    #[serde(default)]
+    pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+    #[serde(default)]
+    pub layers: Layers,
 }
 
 fn default_rr() -> Option<u32> {
@@ -272,6 +293,7 @@ impl TryFrom<PhotonMapConfigRaw> for PhotonMapConfig {
         if r.indirect == (Indirect::FinalGather { rays: 0 }) {
             return Err("FinalGather needs at least 1 ray (or use indirect: Direct or Off)".into());
         }
+        Router::check(r.paths.as_deref(), &r.layers)?;
         Ok(PhotonMapConfig {
             max_bounces: r.max_bounces,
             min_bounces: r.min_bounces,
@@ -285,6 +307,8 @@ impl TryFrom<PhotonMapConfigRaw> for PhotonMapConfig {
             caustics: r.caustics,
             indirect: r.indirect,
             trace_glossy: r.trace_glossy,
+            paths: r.paths,
+            layers: r.layers,
         })
     }
 }
@@ -304,6 +328,8 @@ impl From<PhotonMapConfig> for PhotonMapConfigRaw {
             caustics: c.caustics,
             indirect: c.indirect,
             trace_glossy: c.trace_glossy,
+            paths: c.paths,
+            layers: c.layers,
         }
     }
 }
@@ -320,6 +346,7 @@ impl TryFrom<ProgressiveConfigRaw> for ProgressiveConfig {
                 r.alpha
             ));
         }
+        Router::check(r.paths.as_deref(), &r.layers)?;
         Ok(ProgressiveConfig {
             max_bounces: r.max_bounces,
             min_bounces: r.min_bounces,
@@ -330,6 +357,8 @@ impl TryFrom<ProgressiveConfigRaw> for ProgressiveConfig {
             update: r.update,
             kernel: r.kernel,
             trace_glossy: r.trace_glossy,
+            paths: r.paths,
+            layers: r.layers,
         })
     }
 }
@@ -346,6 +375,8 @@ impl From<ProgressiveConfig> for ProgressiveConfigRaw {
             update: c.update,
             kernel: c.kernel,
             trace_glossy: c.trace_glossy,
+            paths: c.paths,
+            layers: c.layers,
         }
     }
 }

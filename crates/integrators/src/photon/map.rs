@@ -15,7 +15,7 @@
 use super::trace::Photon;
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
-use lightlab_core::{Rgb, TransportMode};
+use lightlab_core::{INV_PI, Rgb, TransportMode};
 use lightlab_materials::SurfaceBsdf;
 use serde::{Deserialize, Serialize};
 use std::num::NonZero;
@@ -123,25 +123,24 @@ impl PhotonMap {
             .collect()
     }
 
-    /// Reflected radiance at `g` from the photons `accept` keeps: Σ K·f·Φ·(shading factor) and the
-    /// squared radius it is to be divided by π times. The kNN radius is set by all photons, accepted
-    /// or not, so the photons kept are a thinning of a disk of known area.
+    /// The density estimate of reflected radiance at `g`, photon by photon: `sink(photon, c)` with
+    /// c = K(d²/r²) · f · Φ · (shading factor) / (π r²), so that the estimate is the sum of the c of
+    /// the photons the caller keeps. Returns r². The kNN radius is set by all photons, kept or
+    /// not, so the photons kept are a thinning of a disk of known area.
     pub fn estimate(
         &self,
         g: &GatherPoint,
         search: Search,
         kernel: Kernel,
-        accept: impl Fn(&Photon) -> bool,
-    ) -> (Rgb, f32) {
-        let mut sum = Rgb::BLACK;
+        mut sink: impl FnMut(&Photon, Rgb),
+    ) -> f32 {
         match search {
             Search::Radius { radius_sq } => {
+                let norm = INV_PI / radius_sq;
                 self.within(g.p, radius_sq, |ph, d2| {
-                    if accept(ph) {
-                        sum += kernel.weight(d2 / radius_sq) * contribution(g, ph);
-                    }
+                    sink(ph, contribution(g, ph) * (kernel.weight(d2 / radius_sq) * norm));
                 });
-                (sum, radius_sq)
+                radius_sq
             }
             Search::Nearest { k, max_radius_sq } => {
                 let found = self.nearest(g.p, k, max_radius_sq);
@@ -151,14 +150,13 @@ impl PhotonMap {
                     max_radius_sq
                 };
                 if radius_sq > 0.0 {
+                    let norm = INV_PI / radius_sq;
                     for &(i, d2) in &found {
                         let ph = &self.photons[i as usize];
-                        if accept(ph) {
-                            sum += kernel.weight(d2 / radius_sq) * contribution(g, ph);
-                        }
+                        sink(ph, contribution(g, ph) * (kernel.weight(d2 / radius_sq) * norm));
                     }
                 }
-                (sum, radius_sq)
+                radius_sq
             }
         }
     }
@@ -190,8 +188,7 @@ mod tests {
             wi: Vec3::Z,
             ng: Vec3::Z,
             power: Rgb::WHITE,
-            bounces: 1,
-            specular_chain: true,
+            class: crate::paths::PathClass::EMPTY.push(lightlab_materials::LobeClass::Diffuse),
         }
     }
 

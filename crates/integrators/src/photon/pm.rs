@@ -21,12 +21,13 @@
 use super::camera::{self, VisiblePoint, Walk};
 use super::config::{Indirect, PhotonMapConfig};
 use super::map::{GatherPoint, PhotonMap, Search};
-use super::trace::{Keep, PhotonTracing, trace_photons};
+use super::trace::{Keep, PHOTON_FLUX, PhotonTracing, trace_photons};
 use crate::film::PixelSums;
-use crate::render::{Counters, render_tiles};
+use crate::paths::{Deposit, PathClass, Router};
+use crate::render::{Counters, named, render_tiles};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
-use lightlab_core::{INV_PI, Progress, Rgb, TransportMode};
+use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_geometry::spawn_ray;
 use lightlab_materials::SurfaceBsdf;
 use lightlab_samplers::{Independent, Sampler};
@@ -39,11 +40,14 @@ const CAUSTIC_STREAM: u64 = 0x1405_7b7e_f767_814f;
 
 pub struct PhotonMapper {
     config: PhotonMapConfig,
+    router: Router,
 }
 
 impl PhotonMapper {
     pub fn new(config: PhotonMapConfig) -> Self {
-        PhotonMapper { config }
+        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
+            .expect("photon-map settings are validated when parsed");
+        PhotonMapper { config, router }
     }
 
     fn walk(&self) -> Walk {
@@ -57,38 +61,49 @@ impl PhotonMapper {
         }
     }
 
-    /// The photon-map estimates at the visible point `vp`, times its throughput.
+    /// Adds the photon-map estimates at the visible point `vp`, times its throughput, to `l`.
     fn at_visible_point(
         &self,
         scene: &Scene,
         maps: &Maps,
         vp: &VisiblePoint,
         sampler: &mut Independent,
+        l: &mut Deposit,
         counters: &mut Counters,
-    ) -> Rgb {
+    ) {
         let c = &self.config;
         let max = c.max_bounces.unwrap_or(u32::MAX);
         let (lo, hi) = vp.photon_bounces(c.min_bounces, max);
-        let mut l = Rgb::BLACK;
         if let Some(map) = &maps.caustic {
-            let k = |b: u16| (lo..=hi).contains(&(b as u32));
-            l += radiance(map, &vp.gather, maps.caustic_search, c.kernel, |p| {
-                k(p.bounces)
+            map.estimate(&vp.gather, maps.caustic_search, c.kernel, |ph, v| {
+                if (lo..=hi).contains(&ph.bounces()) {
+                    self.deposit(l, &vp.class_with(&ph.class), vp.beta * v, counters);
+                }
             });
         }
         match (c.indirect, &maps.global) {
             (Indirect::Direct, Some(map)) => {
-                let (lo, hi) = (lo.max(2), hi);
-                l += radiance(map, &vp.gather, maps.search, c.kernel, |p| {
-                    !p.is_caustic() && (lo..=hi).contains(&(p.bounces as u32))
+                let lo = lo.max(2);
+                map.estimate(&vp.gather, maps.search, c.kernel, |ph, v| {
+                    if !ph.is_caustic() && (lo..=hi).contains(&ph.bounces()) {
+                        self.deposit(l, &vp.class_with(&ph.class), vp.beta * v, counters);
+                    }
                 });
             }
             (Indirect::FinalGather { rays }, Some(map)) => {
-                l += self.final_gather(scene, map, maps.search, vp, rays, sampler, counters);
+                self.final_gather(scene, map, maps.search, vp, rays, sampler, l, counters);
             }
             _ => {}
         }
-        vp.beta * l
+    }
+
+    #[inline]
+    fn deposit(&self, l: &mut Deposit, class: &PathClass, c: Rgb, counters: &mut Counters) {
+        if c.is_finite() {
+            l.add(&self.router, class, c);
+        } else {
+            counters.non_finite[PHOTON_FLUX] += 1;
+        }
     }
 
     /// Jensen's final gather: the mean over `rays` BSDF-sampled directions of the global-map
@@ -102,11 +117,12 @@ impl PhotonMapper {
         vp: &VisiblePoint,
         rays: u32,
         sampler: &mut Independent,
+        l: &mut Deposit,
         counters: &mut Counters,
-    ) -> Rgb {
+    ) {
         let c = &self.config;
         let max = c.max_bounces.unwrap_or(u32::MAX);
-        let mut sum = Rgb::BLACK;
+        let x_class = vp.gather.bsdf.bsdf.lobe_class();
         for _ in 0..rays {
             let (u_lobe, u_dir) = (sampler.next_1d(), sampler.next_2d());
             let Some(s) =
@@ -116,9 +132,11 @@ impl PhotonMapper {
             else {
                 continue;
             };
-            let mut beta = s.weight;
+            let mut beta = vp.beta * s.weight / rays as f32;
             let mut ray = spawn_ray(vp.hit.p, vp.hit.p_error, vp.hit.ng, s.wi);
             let mut depth = vp.depth;
+            // Camera-first classes of the vertices before the gather vertex y.
+            let mut eye = vp.eye.push(x_class);
             loop {
                 counters.rays += 1;
                 let Some(hit) = scene.intersect(&ray) else {
@@ -141,14 +159,17 @@ impl PhotonMapper {
                         hit,
                         beta,
                         depth,
+                        eye,
                     };
                     let (lo, hi) = y.photon_bounces(c.min_bounces, max);
-                    sum += beta
-                        * radiance(map, &y.gather, search, c.kernel, |p| {
-                            (lo..=hi).contains(&(p.bounces as u32))
-                        });
+                    map.estimate(&y.gather, search, c.kernel, |ph, v| {
+                        if (lo..=hi).contains(&ph.bounces()) {
+                            self.deposit(l, &y.class_with(&ph.class), beta * v, counters);
+                        }
+                    });
                     break;
                 }
+                eye = eye.push(bsdf.lobe_class());
                 let Some(s) = sb.sample(
                     wo,
                     sampler.next_1d(),
@@ -161,23 +182,6 @@ impl PhotonMapper {
                 ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
             }
         }
-        sum / rays as f32
-    }
-}
-
-/// Radiance estimate from `map` at `g` over the photons `accept` keeps.
-fn radiance(
-    map: &PhotonMap,
-    g: &GatherPoint,
-    search: Search,
-    kernel: super::map::Kernel,
-    accept: impl Fn(&super::trace::Photon) -> bool,
-) -> Rgb {
-    let (sum, radius_sq) = map.estimate(g, search, kernel, accept);
-    if radius_sq > 0.0 {
-        sum * (INV_PI / radius_sq)
-    } else {
-        Rgb::BLACK
     }
 }
 
@@ -235,29 +239,38 @@ impl Integrator for PhotonMapper {
         let photon_seconds = start.elapsed().as_secs_f64();
         let walk = self.walk();
         let width = scene.camera.width;
-        let (film, camera_counters, wall) = render_tiles(
+        let router = &self.router;
+        let (film, layers, camera_counters, wall) = render_tiles(
             width,
             scene.camera.height,
+            router.layer_count(),
             progress,
-            |x, y, sums: &mut PixelSums, counters| {
+            |x, y, sums: &mut [PixelSums], counters| {
                 let pixel = y as u64 * width as u64 + x as u64;
+                let mut l = Deposit::new(router);
                 for s in 0..budget.spp as u64 {
                     let mut sampler = Independent::new();
                     sampler.start_pixel_sample(seed, pixel, s);
                     let mut lights = Independent::new();
                     lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, s);
                     let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                    let r = camera::walk(scene, &walk, film, &mut sampler, &mut lights, counters);
-                    let mut l = r.l;
-                    if let Some(vp) = &r.visible {
-                        let p = self.at_visible_point(scene, &maps, vp, &mut sampler, counters);
-                        if p.is_finite() {
-                            l += p;
-                        } else {
-                            counters.non_finite[super::trace::PHOTON_FLUX] += 1;
-                        }
+                    l.clear();
+                    let vp = camera::walk(
+                        scene,
+                        &walk,
+                        router,
+                        film,
+                        &mut sampler,
+                        &mut lights,
+                        &mut l,
+                        counters,
+                    );
+                    if let Some(vp) = &vp {
+                        self.at_visible_point(scene, &maps, vp, &mut sampler, &mut l, counters);
                     }
-                    sums.add([l.r as f64, l.g as f64, l.b as f64]);
+                    for (sum, v) in sums.iter_mut().zip(&l.values) {
+                        sum.add([v.r as f64, v.g as f64, v.b as f64]);
+                    }
                 }
             },
         );
@@ -276,6 +289,10 @@ impl Integrator for PhotonMapper {
             + c.caustic_photons * maps.caustic.is_some() as u64;
         stats.photons_stored = maps.global.as_ref().map_or(0, |m| m.len() as u64)
             + maps.caustic.as_ref().map_or(0, |m| m.len() as u64);
-        RenderOutput { film, stats }
+        RenderOutput {
+            film,
+            layers: named(router.layer_names(), layers),
+            stats,
+        }
     }
 }

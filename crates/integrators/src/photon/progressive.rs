@@ -29,7 +29,8 @@ use super::grid::HashGrid;
 use super::map::{Kernel, PhotonMap};
 use super::trace::{Keep, PHOTON_FLUX, Photon, PhotonTracing, trace_photons};
 use crate::film::{Film, PixelSums};
-use crate::render::Counters;
+use crate::paths::{Deposit, Router};
+use crate::render::{Counters, named};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{INV_PI, Progress, Rgb};
@@ -51,25 +52,32 @@ pub enum Variant {
 pub struct Progressive {
     config: ProgressiveConfig,
     variant: Variant,
+    router: Router,
 }
 
-/// What one pixel carries from pass to pass.
-#[derive(Clone, Copy, Debug)]
+/// What one pixel carries from pass to pass, per slot (slot 0 the full image, 1 + l layer l).
+#[derive(Clone, Debug)]
 struct PixelState {
     radius_sq: f32,
     /// Accumulated photon count N (fractional under `Local`).
     n: f64,
     /// Accumulated flux τ (`Local`) or sum of per-pass photon estimates (`Global`).
-    tau: [f64; 3],
+    tau: Vec<[f64; 3]>,
     /// Sum of per-pass camera-side estimates (emission, direct light).
-    direct: [f64; 3],
+    direct: Vec<[f64; 3]>,
     /// Statistics of the per-pass estimates.
-    passes: PixelSums,
+    passes: Vec<PixelSums>,
 }
 
 impl Progressive {
     pub fn new(config: ProgressiveConfig, variant: Variant) -> Self {
-        Progressive { config, variant }
+        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
+            .expect("progressive photon-mapping settings are validated when parsed");
+        Progressive {
+            config,
+            variant,
+            router,
+        }
     }
 
     fn name(&self) -> &'static str {
@@ -90,6 +98,8 @@ impl Progressive {
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
         let c = &self.config;
+        let router = &self.router;
+        let slots = 1 + router.layer_count();
         let start = Instant::now();
         let (width, height) = (scene.camera.width, scene.camera.height);
         let max = c.max_bounces.unwrap_or(u32::MAX);
@@ -110,9 +120,9 @@ impl Progressive {
             PixelState {
                 radius_sq: r1 * r1,
                 n: 0.0,
-                tau: [0.0; 3],
-                direct: [0.0; 3],
-                passes: PixelSums::default(),
+                tau: vec![[0.0; 3]; slots],
+                direct: vec![[0.0; 3]; slots],
+                passes: vec![PixelSums::default(); slots],
             };
             (width * height) as usize
         ];
@@ -120,7 +130,7 @@ impl Progressive {
         let mut photons_stored = 0u64;
         let mut global_radius_sq = r1 * r1;
         progress.start(budget.spp as u64);
-        let mut film = Film::new(width, height);
+        let mut films: Vec<Film> = (0..slots).map(|_| Film::new(width, height)).collect();
         let mut passes = 0;
         for pass in 0..budget.spp {
             let photons = trace_photons(
@@ -148,6 +158,8 @@ impl Progressive {
                 .enumerate()
                 .map(|(y, row)| {
                     let mut counters = Counters::default();
+                    let mut direct = Deposit::new(router);
+                    let mut flux = Deposit::new(router);
                     for (x, px) in row.iter_mut().enumerate() {
                         let pixel = y as u64 * width as u64 + x as u64;
                         let mut sampler = Independent::new();
@@ -155,48 +167,71 @@ impl Progressive {
                         let mut lights = Independent::new();
                         lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, pass as u64);
                         let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                        let r = camera::walk(
+                        direct.clear();
+                        flux.clear();
+                        let vp = camera::walk(
                             scene,
                             &walk,
+                            router,
                             film,
                             &mut sampler,
                             &mut lights,
+                            &mut direct,
                             &mut counters,
                         );
                         let radius_sq = match c.update {
                             RadiusUpdate::Local => px.radius_sq,
                             RadiusUpdate::Global => global_radius_sq,
                         };
-                        let (flux, m) = match &r.visible {
+                        let m = match &vp {
                             Some(vp) => {
                                 let (lo, hi) = vp.photon_bounces(c.min_bounces, max);
-                                let (lo, hi) = (lo.max(2), hi);
-                                gather(&map, vp, radius_sq, c.kernel, lo, hi)
+                                gather(
+                                    &map,
+                                    vp,
+                                    radius_sq,
+                                    c.kernel,
+                                    (lo.max(2), hi),
+                                    router,
+                                    &mut flux,
+                                )
                             }
-                            None => (Rgb::BLACK, 0),
+                            None => 0,
                         };
-                        if !flux.is_finite() {
+                        if !flux.values[0].is_finite() {
                             counters.non_finite[PHOTON_FLUX] += 1;
                             continue;
                         }
-                        let photon_estimate = flux * (INV_PI / radius_sq);
-                        let pass_estimate = r.l + photon_estimate;
-                        px.passes.add(to_f64(pass_estimate));
-                        for k in 0..3 {
-                            px.direct[k] += to_f64(r.l)[k];
+                        let norm = (INV_PI / radius_sq) as f64;
+                        for k in 0..slots {
+                            let (d, f) = (to_f64(direct.values[k]), to_f64(flux.values[k]));
+                            px.passes[k].add([
+                                d[0] + f[0] * norm,
+                                d[1] + f[1] * norm,
+                                d[2] + f[2] * norm,
+                            ]);
+                            for ch in 0..3 {
+                                px.direct[k][ch] += d[ch];
+                            }
                         }
                         match c.update {
                             RadiusUpdate::Global => {
-                                for k in 0..3 {
-                                    px.tau[k] += to_f64(photon_estimate)[k];
+                                for k in 0..slots {
+                                    let f = to_f64(flux.values[k]);
+                                    for ch in 0..3 {
+                                        px.tau[k][ch] += f[ch] * norm;
+                                    }
                                 }
                             }
                             RadiusUpdate::Local if m > 0 => {
                                 let (n, m) = (px.n, m as f64);
                                 let n_new = n + c.alpha as f64 * m;
                                 let shrink = n_new / (n + m);
-                                for k in 0..3 {
-                                    px.tau[k] = (px.tau[k] + to_f64(flux)[k]) * shrink;
+                                for k in 0..slots {
+                                    let f = to_f64(flux.values[k]);
+                                    for ch in 0..3 {
+                                        px.tau[k][ch] = (px.tau[k][ch] + f[ch]) * shrink;
+                                    }
                                 }
                                 px.n = n_new;
                                 px.radius_sq = (px.radius_sq as f64 * shrink) as f32;
@@ -212,22 +247,24 @@ impl Progressive {
             }
             let i = pass as u64 + 1;
             global_radius_sq *= (i as f32 + c.alpha) / (i as f32 + 1.0);
-            for (p, px) in film.pixels.iter_mut().zip(&state) {
-                let mut out = px.passes;
-                let photons = match c.update {
-                    RadiusUpdate::Global => px.tau.map(|t| t / i as f64),
-                    RadiusUpdate::Local => px
-                        .tau
-                        .map(|t| t / (i as f64 * std::f64::consts::PI * px.radius_sq as f64)),
-                };
-                for k in 0..3 {
-                    out.mean[k] = px.direct[k] / i as f64 + photons[k];
+            for (k, film) in films.iter_mut().enumerate() {
+                for (p, px) in film.pixels.iter_mut().zip(&state) {
+                    let mut out = px.passes[k];
+                    let photons = match c.update {
+                        RadiusUpdate::Global => px.tau[k].map(|t| t / i as f64),
+                        RadiusUpdate::Local => px.tau[k].map(|t| {
+                            t / (i as f64 * std::f64::consts::PI * px.radius_sq as f64)
+                        }),
+                    };
+                    for ch in 0..3 {
+                        out.mean[ch] = px.direct[k][ch] / i as f64 + photons[ch];
+                    }
+                    *p = out;
                 }
-                *p = out;
             }
             passes = i as u32;
             progress.advance(1);
-            if !on_pass(passes, &film) {
+            if !on_pass(passes, &films[0]) {
                 break;
             }
         }
@@ -244,7 +281,12 @@ impl Progressive {
         );
         stats.photons = c.photons_per_pass * passes as u64;
         stats.photons_stored = photons_stored;
-        RenderOutput { film, stats }
+        let film = films.remove(0);
+        RenderOutput {
+            film,
+            layers: named(router.layer_names(), films),
+            stats,
+        }
     }
 }
 
@@ -270,27 +312,32 @@ impl Index {
     }
 }
 
-/// β · Σ K·f·Φ over the photons of bounce count in `lo..=hi` within the radius, and their number.
+/// Adds β · K·f·Φ of every photon within the radius whose bounce count lies in `bounces` to
+/// `flux`, by class, and returns how many there were.
 fn gather(
     map: &Index,
     vp: &camera::VisiblePoint,
     radius_sq: f32,
     kernel: Kernel,
-    lo: u32,
-    hi: u32,
-) -> (Rgb, u32) {
-    let mut sum = Rgb::BLACK;
+    bounces: (u32, u32),
+    router: &Router,
+    flux: &mut Deposit,
+) -> u32 {
     let mut m = 0u32;
     map.within(vp.gather.p, radius_sq, |ph, d2| {
-        if (lo..=hi).contains(&(ph.bounces as u32)) {
+        if (bounces.0..=bounces.1).contains(&ph.bounces()) {
             let c = super::map::contribution(&vp.gather, ph);
             if !c.is_black() {
                 m += 1;
-                sum += kernel.weight(d2 / radius_sq) * c;
+                flux.add(
+                    router,
+                    &vp.class_with(&ph.class),
+                    vp.beta * c * kernel.weight(d2 / radius_sq),
+                );
             }
         }
     });
-    (vp.beta * sum, m)
+    m
 }
 
 impl Integrator for Progressive {

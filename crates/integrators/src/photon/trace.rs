@@ -11,11 +11,12 @@
 //! Determinism: photon j's random numbers come from (seed, j) alone, and chunks of photons are
 //! concatenated in index order, so a photon map is bit-identical on any number of threads.
 
+use crate::paths::PathClass;
 use crate::render::Counters;
 use glam::Vec3;
 use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_geometry::spawn_ray;
-use lightlab_materials::SurfaceBsdf;
+use lightlab_materials::{LobeClass, SurfaceBsdf};
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::{Light, Scene};
 use rayon::prelude::*;
@@ -36,19 +37,23 @@ pub struct Photon {
     pub ng: Vec3,
     /// Flux, W per channel, already divided by the number of photon paths of its map.
     pub power: Rgb,
-    /// Scattering vertices from the light up to and including this one (k ≥ 1): the photon is the
-    /// end of a path `L X₁ … X_k`.
-    pub bounces: u16,
-    /// Every earlier scattering vertex was specular, so with `bounces ≥ 2` the photon's path is
-    /// `L S+ X` (a caustic photon).
-    pub specular_chain: bool,
+    /// The scattering vertices of its path from the light, this one included (k ≥ 1 of them):
+    /// the photon is the end of a path `L X₁ … X_k`.
+    pub class: PathClass,
 }
 
 impl Photon {
+    /// Number of scattering vertices k.
+    #[inline]
+    pub fn bounces(&self) -> u32 {
+        self.class.len()
+    }
+
     /// Whether the photon is a caustic photon, `L S+ X`.
     #[inline]
     pub fn is_caustic(&self) -> bool {
-        self.specular_chain && self.bounces >= 2
+        let k = self.class.len();
+        k >= 2 && !self.class.is_long() && (0..k - 1).all(|i| self.class.get(i) == LobeClass::Specular)
     }
 }
 
@@ -148,7 +153,7 @@ fn trace_one(
     };
     let mut beta = power * scale;
     let mut bounces = 0u32;
-    let mut specular_chain = true;
+    let mut class = PathClass::EMPTY;
     loop {
         counters.rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
@@ -161,14 +166,14 @@ fn trace_one(
         let wo = -ray.d.normalize();
         let bsdf = scene.materials[hit.material as usize];
         let delta = bsdf.is_delta();
+        class = class.push(bsdf.lobe_class());
         if !delta {
             let photon = Photon {
                 p: hit.p,
                 wi: wo,
                 ng: hit.ng,
                 power: beta,
-                bounces: bounces.min(u16::MAX as u32) as u16,
-                specular_chain,
+                class,
             };
             if !beta.is_finite() {
                 counters.non_finite[PHOTON_FLUX] += 1;
@@ -190,7 +195,6 @@ fn trace_one(
             return;
         };
         beta *= s.weight;
-        specular_chain &= delta;
         if let Some(rr) = how.russian_roulette
             && bounces >= rr
         {
