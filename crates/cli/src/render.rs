@@ -3,12 +3,14 @@
 use crate::progress::Bar;
 use clap::Args;
 use lightlab_experiments::atomic::write_atomic;
-use lightlab_experiments::image_io::{film_layers, write_exr, write_png};
+use lightlab_experiments::image_io::{output_layers, write_exr, write_png};
+use lightlab_integrators::paths::Layers;
 use lightlab_integrators::{Budget, IntegratorConfig};
 use std::path::PathBuf;
 
-/// Render a scene and write OUT.exr (layers `radiance` and `variance`, linear float), OUT.png
-/// (tone-mapped sRGB preview) and OUT.json (statistics: time, samples, rays, non-finite samples).
+/// Render a scene and write OUT.exr (layers `radiance` and `variance`, linear float, plus any
+/// path-class or bounce layers asked for), OUT.png (tone-mapped sRGB preview) and OUT.json
+/// (statistics: time, samples, rays, non-finite samples).
 #[derive(Args)]
 pub struct RenderArgs {
     /// Scene file (RON), see scenes/README.md.
@@ -29,14 +31,28 @@ pub struct RenderArgs {
     /// Output EXR path; the PNG and JSON are written beside it with the same stem.
     #[arg(long, short, default_value = "out.exr")]
     output: PathBuf,
+    /// Render only the paths this Heckbert expression matches, e.g. 'LS+DE' (caustics); see the
+    /// README's "Path classes". Overrides the integrator's `paths`.
+    #[arg(long)]
+    paths: Option<String>,
+    /// Write extra EXR layers: `bounces` (one per bounce count: the Neumann series term by term)
+    /// or comma-separated path expressions, e.g. 'LS+DE,LDE' (each layer holds the paths its
+    /// expression matches first; a `rest` layer the others). The layers sum to the image.
+    #[arg(long)]
+    layers: Option<String>,
     /// Exposure of the PNG preview in stops.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
 }
 
 pub fn run(args: RenderArgs) -> Result<(), String> {
+    let layers = args.layers.as_deref().map(|l| match l.trim() {
+        "bounces" => Layers::Bounces,
+        list => Layers::Classes(list.split(',').map(|e| e.trim().to_string()).collect()),
+    });
     let config = IntegratorConfig::from_ron(&args.integrator)
-        .map_err(|e| format!("--integrator '{}': {e}", args.integrator))?;
+        .map_err(|e| format!("--integrator '{}': {e}", args.integrator))?
+        .with_paths_and_layers(args.paths.clone(), layers)?;
     let scene = lightlab_scene::load_scene(&args.scene).map_err(|e| e.to_string())?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(t) = args.threads {
@@ -52,7 +68,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     bar.0.finish_and_clear();
 
     let (w, h) = (out.film.width, out.film.height);
-    let layers = film_layers(&out.film);
+    let layers = output_layers(&out);
     write_exr(&args.output, w, h, &layers).map_err(|e| e.to_string())?;
     let png = args.output.with_extension("png");
     write_png(&png, w, h, &layers[0].pixels, args.exposure).map_err(|e| e.to_string())?;
@@ -93,6 +109,13 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
             "warning: {} non-finite contributions were left out of the image: {:?}",
             s.non_finite_total(),
             s.non_finite
+        );
+    }
+    for (name, film) in &out.layers {
+        let (m, e) = film.average();
+        println!(
+            "  layer {name:>12}: mean ({:.6}, {:.6}, {:.6}) ± ({:.2e}, {:.2e}, {:.2e})",
+            m[0], m[1], m[2], e[0], e[1], e[2]
         );
     }
     println!(

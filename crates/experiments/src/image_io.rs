@@ -2,7 +2,7 @@
 //! channels R, G, B), and a tone-mapped sRGB PNG preview.
 
 use crate::atomic::write_atomic_with;
-use lightlab_integrators::Film;
+use lightlab_integrators::{Film, RenderOutput};
 use std::path::Path;
 
 /// A named RGB image, row-major.
@@ -40,6 +40,26 @@ pub fn film_layers(film: &Film) -> Vec<RgbLayer> {
                 .collect(),
         },
     ]
+}
+
+/// The layers of a render: the full image's `radiance` and `variance`, then each path-class or
+/// bounce layer the integrator wrote as `<name>` and `<name>.variance`.
+pub fn output_layers(out: &RenderOutput) -> Vec<RgbLayer> {
+    let mut layers = film_layers(&out.film);
+    for (name, film) in &out.layers {
+        let [mean, variance] = <[RgbLayer; 2]>::try_from(film_layers(film))
+            .ok()
+            .expect("two layers");
+        layers.push(RgbLayer {
+            name: name.clone(),
+            pixels: mean.pixels,
+        });
+        layers.push(RgbLayer {
+            name: format!("{name}.variance"),
+            pixels: variance.pixels,
+        });
+    }
+    layers
 }
 
 /// Writes the layers as a multi-part OpenEXR file, atomically, ZIP-compressed 32-bit float.

@@ -794,7 +794,9 @@ impl SamplerVisitor for RenderWith<'_> {
                                     let class = match s {
                                         0 if t >= 2 => camera[t - 2].class.reversed(),
                                         0 => PathClass::EMPTY,
-                                        _ => light[s - 1].class.then(camera[t - 1].class.reversed()),
+                                        _ => {
+                                            light[s - 1].class.then(camera[t - 1].class.reversed())
+                                        }
                                     };
                                     let Some(layer) = router.route(&class) else {
                                         continue;

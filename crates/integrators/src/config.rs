@@ -4,11 +4,11 @@ use crate::Integrator;
 use crate::bdpt::Bdpt;
 use crate::light::LightTracer;
 use crate::path::PathTracer;
+use crate::paths::{Layers, Router};
 use crate::photon::config::{PhotonMapConfig, ProgressiveConfig};
 use crate::photon::pm::PhotonMapper;
 use crate::photon::progressive::{Progressive, Variant};
 use lightlab_samplers::SamplerConfig;
-use crate::paths::{Layers, Router};
 use serde::{Deserialize, Serialize};
 
 /// Which integrator to run and with what settings, e.g. `Path(max_bounces: 8, strategy: Mis)`.
@@ -355,6 +355,39 @@ impl IntegratorConfig {
                     .compact_structs(true),
             )
             .expect("integrator settings always serialise")
+    }
+
+    /// The `paths` and `layers` settings, whatever the integrator.
+    fn paths_and_layers(&mut self) -> (&mut Option<String>, &mut Layers) {
+        match self {
+            IntegratorConfig::Path(c) => (&mut c.paths, &mut c.layers),
+            IntegratorConfig::Light(c) => (&mut c.paths, &mut c.layers),
+            IntegratorConfig::Bdpt(c) => (&mut c.paths, &mut c.layers),
+            IntegratorConfig::PhotonMap(c) => (&mut c.paths, &mut c.layers),
+            IntegratorConfig::Ppm(c) | IntegratorConfig::Sppm(c) => (&mut c.paths, &mut c.layers),
+        }
+    }
+
+    /// These settings with `paths` and/or `layers` replaced (checked as when parsed).
+    pub fn with_paths_and_layers(
+        mut self,
+        paths: Option<String>,
+        layers: Option<Layers>,
+    ) -> Result<IntegratorConfig, String> {
+        let (p, l) = self.paths_and_layers();
+        if let Some(paths) = paths {
+            *p = Some(paths);
+        }
+        if let Some(layers) = layers {
+            *l = layers;
+        }
+        Router::check(p.as_deref(), l)?;
+        Ok(self)
+    }
+
+    /// The layers this integrator is set to write.
+    pub fn layers(&self) -> Layers {
+        self.clone().paths_and_layers().1.clone()
     }
 
     pub fn build(&self) -> Box<dyn Integrator> {

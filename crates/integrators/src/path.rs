@@ -103,7 +103,14 @@ impl PathTracer {
                             .map(|&i| scene.light_pmf(i) * INV_4PI)
                             .sum()
                     });
-                    add(l, router, &class.reversed(), beta * le * w, EMISSION, counters);
+                    add(
+                        l,
+                        router,
+                        &class.reversed(),
+                        beta * le * w,
+                        EMISSION,
+                        counters,
+                    );
                 }
                 break;
             };
@@ -122,7 +129,14 @@ impl PathTracer {
                         scene.light_pmf(hit.light)
                             * shapes[hit.shape as usize].pdf_solid_angle(prev_p, hit.p, hit.ng)
                     });
-                    add(l, router, &class.reversed(), beta * le * w, EMISSION, counters);
+                    add(
+                        l,
+                        router,
+                        &class.reversed(),
+                        beta * le * w,
+                        EMISSION,
+                        counters,
+                    );
                 }
             }
             if depth >= max_bounces {

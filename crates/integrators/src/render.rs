@@ -135,12 +135,7 @@ where
             for y in 0..h {
                 for x in 0..w {
                     let k = (y * w + x) as usize * per_pixel;
-                    pixel(
-                        x0 + x,
-                        y0 + y,
-                        &mut sums[k..k + per_pixel],
-                        &mut counters,
-                    );
+                    pixel(x0 + x, y0 + y, &mut sums[k..k + per_pixel], &mut counters);
                 }
             }
             progress.advance((w * h) as u64);

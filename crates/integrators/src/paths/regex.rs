@@ -266,7 +266,7 @@ impl Nfa {
         }
     }
 
-    fn closure(&self, set: &mut Vec<bool>) {
+    fn closure(&self, set: &mut [bool]) {
         let mut stack: Vec<usize> = (0..set.len()).filter(|&i| set[i]).collect();
         while let Some(s) = stack.pop() {
             for &t in &self.eps[s] {
@@ -315,7 +315,10 @@ impl PathRegex {
             for sym in 0..SYMBOLS {
                 let mut to = vec![false; n];
                 for (s, &inside) in sets[i].iter().enumerate() {
-                    if inside && let Some((set, t)) = nfa.on[s] && set & (1 << sym) != 0 {
+                    if inside
+                        && let Some((set, t)) = nfa.on[s]
+                        && set & (1 << sym) != 0
+                    {
                         to[t] = true;
                     }
                 }
@@ -416,7 +419,11 @@ mod tests {
             ("LE", &["LE"], &["LDE", "LSE"]),
             ("LDE", &["LDE"], &["LE", "LDDE", "LGE"]),
             ("LD+E", &["LDE", "LDDDE"], &["LE", "LDSE", "LSDE"]),
-            ("LS+DE", &["LSDE", "LSSDE"], &["LDE", "LSDDE", "LSDSE", "LSSGE"]),
+            (
+                "LS+DE",
+                &["LSDE", "LSSDE"],
+                &["LDE", "LSDDE", "LSDSE", "LSSGE"],
+            ),
             ("LS+DS+E", &["LSDSE", "LSSDSSE"], &["LSDE", "LDSE"]),
             ("L.*SDS.*E", &["LSDSE", "LDDSDSGE"], &["LSDDSE", "LDE"]),
             ("L(D|G)*E", &["LE", "LDGDE"], &["LSE", "LDSDE"]),

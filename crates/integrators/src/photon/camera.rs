@@ -153,7 +153,13 @@ pub fn walk<S: Sampler, T: Sampler>(
             } else {
                 power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
             };
-            add(l, router, &class.push(class_here), beta * d.value * w, counters);
+            add(
+                l,
+                router,
+                &class.push(class_here),
+                beta * d.value * w,
+                counters,
+            );
         }
         if gathers {
             return Some(VisiblePoint {
@@ -170,9 +176,7 @@ pub fn walk<S: Sampler, T: Sampler>(
         }
         class = class.push(class_here);
         let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
-        let Some(s) = sb.sample(wo, u_lobe, u_dir, TransportMode::Radiance) else {
-            return None;
-        };
+        let s = sb.sample(wo, u_lobe, u_dir, TransportMode::Radiance)?;
         beta *= s.weight;
         if s.transmission {
             eta_scale *= s.eta * s.eta;

@@ -131,8 +131,7 @@ mod tests {
                 wi: Vec3::Z,
                 ng: Vec3::Z,
                 power: Rgb::splat(i as f32),
-                class: crate::paths::PathClass::EMPTY
-                    .push(lightlab_materials::LobeClass::Diffuse),
+                class: crate::paths::PathClass::EMPTY.push(lightlab_materials::LobeClass::Diffuse),
             })
             .collect();
         for r in [0.01f32, 0.05, 0.3] {

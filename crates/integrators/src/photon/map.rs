@@ -138,7 +138,10 @@ impl PhotonMap {
             Search::Radius { radius_sq } => {
                 let norm = INV_PI / radius_sq;
                 self.within(g.p, radius_sq, |ph, d2| {
-                    sink(ph, contribution(g, ph) * (kernel.weight(d2 / radius_sq) * norm));
+                    sink(
+                        ph,
+                        contribution(g, ph) * (kernel.weight(d2 / radius_sq) * norm),
+                    );
                 });
                 radius_sq
             }
@@ -153,7 +156,10 @@ impl PhotonMap {
                     let norm = INV_PI / radius_sq;
                     for &(i, d2) in &found {
                         let ph = &self.photons[i as usize];
-                        sink(ph, contribution(g, ph) * (kernel.weight(d2 / radius_sq) * norm));
+                        sink(
+                            ph,
+                            contribution(g, ph) * (kernel.weight(d2 / radius_sq) * norm),
+                        );
                     }
                 }
                 radius_sq

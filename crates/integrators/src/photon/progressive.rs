@@ -252,9 +252,8 @@ impl Progressive {
                     let mut out = px.passes[k];
                     let photons = match c.update {
                         RadiusUpdate::Global => px.tau[k].map(|t| t / i as f64),
-                        RadiusUpdate::Local => px.tau[k].map(|t| {
-                            t / (i as f64 * std::f64::consts::PI * px.radius_sq as f64)
-                        }),
+                        RadiusUpdate::Local => px.tau[k]
+                            .map(|t| t / (i as f64 * std::f64::consts::PI * px.radius_sq as f64)),
                     };
                     for ch in 0..3 {
                         out.mean[ch] = px.direct[k][ch] / i as f64 + photons[ch];

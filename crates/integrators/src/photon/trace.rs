@@ -53,7 +53,9 @@ impl Photon {
     #[inline]
     pub fn is_caustic(&self) -> bool {
         let k = self.class.len();
-        k >= 2 && !self.class.is_long() && (0..k - 1).all(|i| self.class.get(i) == LobeClass::Specular)
+        k >= 2
+            && !self.class.is_long()
+            && (0..k - 1).all(|i| self.class.get(i) == LobeClass::Specular)
     }
 }
 
