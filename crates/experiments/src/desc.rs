@@ -37,6 +37,11 @@ pub struct ExperimentDesc {
     /// Default 0.
     #[serde(default)]
     pub seed: u64,
+    /// Path classes (Heckbert expressions such as `"LS+DE"`) whose error is reported separately:
+    /// every run and the reference write one layer per class (the paths it matches first) and a
+    /// `rest` layer, and each gets its own metrics and plots. Default: none.
+    #[serde(default)]
+    pub classes: Vec<String>,
 }
 
 fn default_trials() -> u32 {
@@ -220,6 +225,11 @@ impl ExperimentDesc {
                     &format!("\"{}\"", m.label),
                     format!("method label {:?} is used twice", m.label),
                 );
+            }
+        }
+        for class in &self.classes {
+            if let Err(e) = lightlab_integrators::paths::PathRegex::new(class) {
+                return err(&format!("\"{class}\""), format!("classes: {e}"));
             }
         }
         if self.trials < 2 {

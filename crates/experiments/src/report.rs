@@ -63,7 +63,18 @@ fn csv_rows(records: &[RunRecord]) -> Vec<CsvRow> {
             ("reference_variance", r.errors.reference_variance),
             ("efficiency", r.efficiency),
         ];
-        for (metric, value) in metrics {
+        let per_class = r.class_errors.iter().flat_map(|(class, e)| {
+            [
+                (format!("mse[{class}]"), e.mse),
+                (format!("rel_mse[{class}]"), e.rel_mse),
+                (format!("reference_variance[{class}]"), e.reference_variance),
+            ]
+        });
+        for (metric, value) in metrics
+            .into_iter()
+            .map(|(m, v)| (m.to_string(), v))
+            .chain(per_class)
+        {
             rows.push(CsvRow {
                 run: r.id.clone(),
                 scene: r.scene.clone(),
@@ -71,7 +82,7 @@ fn csv_rows(records: &[RunRecord]) -> Vec<CsvRow> {
                 setting: r.setting.clone(),
                 trial: r.trial,
                 seed: r.seed,
-                metric: metric.into(),
+                metric,
                 value,
             });
         }
@@ -89,6 +100,8 @@ struct RunPoint {
     wall_seconds: f64,
     mse: f64,
     efficiency: f64,
+    /// MSE of each path-class layer.
+    class_mse: BTreeMap<String, f64>,
 }
 
 fn points(rows: &[CsvRow]) -> Vec<RunPoint> {
@@ -109,7 +122,11 @@ fn points(rows: &[CsvRow]) -> Vec<RunPoint> {
             "wall_seconds" => p.wall_seconds = row.value,
             "mse" => p.mse = row.value,
             "efficiency" => p.efficiency = row.value,
-            _ => {}
+            m => {
+                if let Some(class) = m.strip_prefix("mse[").and_then(|c| c.strip_suffix(']')) {
+                    p.class_mse.insert(class.to_string(), row.value);
+                }
+            }
         }
     }
     order.iter().map(|r| by_run[r].clone()).collect()
@@ -160,6 +177,15 @@ struct SettingSummary {
     non_finite: u64,
     /// Mean image over the trials (layers `radiance` and `variance` = variance of that mean).
     image: Option<String>,
+    /// Errors of each path-class layer (the experiment's `classes`, then `rest`).
+    classes: Vec<ClassSummary>,
+}
+
+#[derive(Serialize)]
+struct ClassSummary {
+    class: String,
+    mse: (f64, f64),
+    rel_mse: (f64, f64),
 }
 
 /// The mean over trials of `images` and the variance of that mean (sample variance / T).
@@ -287,6 +313,25 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             variance: bv.map(|b| b.variance),
             non_finite: rs.iter().map(|r| r.non_finite).sum(),
             image,
+            classes: rs[0]
+                .class_errors
+                .iter()
+                .enumerate()
+                .map(|(k, (class, _))| {
+                    let of = |f: fn(&crate::metrics::Errors) -> f64| {
+                        mean_se(
+                            &rs.iter()
+                                .filter_map(|r| r.class_errors.get(k).map(|e| f(&e.1)))
+                                .collect::<Vec<_>>(),
+                        )
+                    };
+                    ClassSummary {
+                        class: class.clone(),
+                        mse: of(|e| e.mse),
+                        rel_mse: of(|e| e.rel_mse),
+                    }
+                })
+                .collect(),
         });
     }
     let plots = write_plots(out_dir, &rows)?;
@@ -435,6 +480,87 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
             let file = format!("{scene}-{name}.svg");
             write_atomic(&out_dir.join(&file), svg.as_bytes())?;
             files.push(file);
+        }
+
+        // The error of each path class alone, against samples and against time.
+        let classes: std::collections::BTreeSet<&String> = pts
+            .iter()
+            .filter(|p| p.scene == scene)
+            .flat_map(|p| p.class_mse.keys())
+            .collect();
+        for class in classes {
+            let mut by_spp = Vec::new();
+            let mut by_time = Vec::new();
+            for label in &order {
+                let mut a = Vec::new();
+                let mut b = Vec::new();
+                for trials in series[label].values() {
+                    let mse: Vec<f64> = trials
+                        .iter()
+                        .filter_map(|p| p.class_mse.get(class).copied())
+                        .collect();
+                    if mse.is_empty() {
+                        continue;
+                    }
+                    let (spp, _) = mean_se(&trials.iter().map(|p| p.spp).collect::<Vec<_>>());
+                    let (time, _) =
+                        mean_se(&trials.iter().map(|p| p.wall_seconds).collect::<Vec<_>>());
+                    let (m, se) = mean_se(&mse);
+                    a.push((spp, m, se));
+                    b.push((time, m, se));
+                }
+                a.sort_by(|x, y| x.0.total_cmp(&y.0));
+                b.sort_by(|x, y| x.0.total_cmp(&y.0));
+                if let Some(f) = fit_line(
+                    &a.iter()
+                        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+                        .map(|p| (p.0.ln(), p.1.ln()))
+                        .collect::<Vec<_>>(),
+                ) {
+                    fits.push(SeriesFit {
+                        scene: scene.into(),
+                        series: format!("{label} [{class}]"),
+                        slope: f.slope,
+                        slope_ci95: f.slope_ci95,
+                        points: f.points,
+                    });
+                }
+                by_spp.push(Series {
+                    label: label.clone(),
+                    points: a,
+                });
+                by_time.push(Series {
+                    label: label.clone(),
+                    points: b,
+                });
+            }
+            for (name, title, x, series) in [
+                (
+                    "mse-vs-spp",
+                    "against samples per pixel",
+                    "samples per pixel",
+                    by_spp,
+                ),
+                (
+                    "mse-vs-time",
+                    "against render time",
+                    "wall seconds",
+                    by_time,
+                ),
+            ] {
+                let plot = LinePlot {
+                    title: format!("{scene}: MSE of the {class} paths {title}"),
+                    x_label: x.into(),
+                    y_label: format!("MSE of {class} (mean over trials ± 1 s.e.)"),
+                    log_x: true,
+                    log_y: true,
+                    series,
+                };
+                let svg = render_svg(&plot).map_err(io::Error::other)?;
+                let file = format!("{scene}-{name}-{}.svg", sanitize(class));
+                write_atomic(&out_dir.join(&file), svg.as_bytes())?;
+                files.push(file);
+            }
         }
     }
     Ok(Plots { fits, files })

@@ -5,10 +5,10 @@
 
 use crate::atomic::write_atomic;
 use crate::desc::{BudgetDesc, ExperimentDesc, load_experiment};
-use crate::image_io::{film_layers, write_exr};
+use crate::image_io::{output_layers, write_exr};
 use crate::metrics::{Errors, errors};
 use crate::plan::{RunSpec, expand, fnv1a, shard};
-use crate::reference::{Reference, reference};
+use crate::reference::{Reference, class_layers, reference};
 use crate::report::write_report;
 use lightlab_core::{NoProgress, Progress};
 use lightlab_integrators::{Budget, Film, Integrator, IntegratorConfig, RenderOutput};
@@ -48,6 +48,10 @@ pub struct RunRecord {
     pub rays: u64,
     pub non_finite: u64,
     pub errors: Errors,
+    /// Errors of each path-class layer (the experiment's `classes`, then `rest`) against the same
+    /// layer of the reference.
+    #[serde(default)]
+    pub class_errors: Vec<(String, Errors)>,
     /// The reference image the errors were measured against.
     pub reference: PathBuf,
     /// 1 / (MSE · wall seconds).
@@ -109,6 +113,9 @@ pub fn render_budget(
                     None => out,
                     Some(mut t) => {
                         merge_film(&mut t.film, &out.film);
+                        for ((_, into), (_, from)) in t.layers.iter_mut().zip(&out.layers) {
+                            merge_film(into, from);
+                        }
                         t.stats.spp += 1;
                         t.stats.samples += out.stats.samples;
                         t.stats.rays += out.stats.rays;
@@ -206,6 +213,7 @@ pub fn run_experiment(
                 &run.scene_name,
                 &text,
                 &scene,
+                &desc.classes,
                 per_run,
             )?;
             log(&format!(
@@ -216,7 +224,9 @@ pub fn run_experiment(
             scenes.insert(run.scene.clone(), (scene, r));
         }
         let (scene, reference) = &scenes[&run.scene];
-        let config = IntegratorConfig::from_ron(&run.integrator).map_err(|e| e.to_string())?;
+        let config = IntegratorConfig::from_ron(&run.integrator)
+            .and_then(|c| c.with_paths_and_layers(None, class_layers(&desc.classes)))
+            .map_err(|e| e.to_string())?;
         let out = render_budget(
             config.build().as_ref(),
             scene,
@@ -224,9 +234,18 @@ pub fn run_experiment(
             run.seed,
             per_run,
         );
-        let layers = film_layers(&out.film);
+        let layers = output_layers(&out);
         let e = errors(&layers[0].pixels, &reference.image)
             .ok_or("image and reference sizes differ")?;
+        let mut class_errors = Vec::new();
+        for (name, image) in &reference.classes {
+            let layer = layers
+                .iter()
+                .find(|l| &l.name == name)
+                .ok_or_else(|| format!("the render has no layer {name}"))?;
+            let e = errors(&layer.pixels, image).ok_or("layer and reference sizes differ")?;
+            class_errors.push((name.clone(), e));
+        }
         if e.reference_variance > 0.1 * e.mse.abs() {
             warnings.push(format!(
                 "{} / {} / {}: the reference's own variance ({:.3e}) is more than 10 % of the measured MSE ({:.3e}); render the reference with more samples",
@@ -256,6 +275,7 @@ pub fn run_experiment(
             rays: out.stats.rays,
             non_finite: out.stats.non_finite_total(),
             errors: e,
+            class_errors,
             reference: reference.path.clone(),
             efficiency: 1.0 / (e.mse * out.stats.wall_seconds),
             lightlab_version: env!("CARGO_PKG_VERSION").into(),

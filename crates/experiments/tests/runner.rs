@@ -188,3 +188,42 @@ fn time_budget_runs_progressive_photon_mapping_pass_after_pass() {
     assert!(out.stats.wall_seconds >= 0.3);
     assert_eq!(out.film.pixels[0].count, out.stats.spp as u64);
 }
+
+/// Path classes in an experiment: every run and the reference are split into the class layers,
+/// each class gets its own metrics (rows `mse[LDE]`, `mse[rest]` in runs.csv, per-class entries in
+/// summary.json) and plots, and the class MSEs reflect where the error is: a method limited to
+/// direct light (`max_bounces: 1`) has its error in `rest`, not in `LDE`.
+#[test]
+fn classes_get_their_own_metrics_and_plots() {
+    let (experiment, dir) = setup("classes");
+    let text = EXPERIMENT
+        .replace("name: \"tiny\"", "name: \"classes\"")
+        .replace(
+            r#"(label: "bsdf", integrator: "Path", settings: {"max_bounces": 3, "strategy": "BsdfOnly"}),"#,
+            r#"(label: "direct only", integrator: "Path", settings: {"max_bounces": 1}),"#,
+        )
+        .replace("seed: 9,", "seed: 9,\n    classes: [\"LDE\"],");
+    std::fs::write(&experiment, text).unwrap();
+    let results = dir.join("results");
+    run(&experiment, &results, None);
+    let out = results.join("classes");
+    let records = finished_runs(&out).unwrap();
+    assert!(!records.is_empty());
+    for r in &records {
+        let names: Vec<&str> = r.class_errors.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["LDE", "rest"]);
+        let (lde, rest) = (r.class_errors[0].1.mse, r.class_errors[1].1.mse);
+        if r.method == "direct only" {
+            // The missing 2–3 bounce light is the whole `rest` layer, and it dominates the error.
+            assert!(rest > 10.0 * lde.abs(), "{}: LDE {lde}, rest {rest}", r.id);
+        }
+    }
+    let csv = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    assert!(csv.contains("mse[LDE]") && csv.contains("mse[rest]"));
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(summary.contains("\"class\": \"LDE\""));
+    for plot in ["furnace-mse-vs-spp-LDE.svg", "furnace-mse-vs-time-rest.svg"] {
+        assert!(out.join(plot).is_file(), "{plot} missing");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -25,7 +25,7 @@
 use crate::config::{BdptConfig, Mis};
 use crate::film::{Film, PixelSums};
 use crate::paths::{PathClass, Router};
-use crate::render::{Counters, named};
+use crate::render::Counters;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::{Vec2, Vec3};
 use lightlab_core::{Progress, Ray, Rgb, TransportMode};
@@ -238,13 +238,35 @@ fn direction(from: &Vertex, to: &Vertex) -> Vec3 {
 pub struct Bdpt {
     config: BdptConfig,
     router: Router,
+    /// With `strategy_layers`: every strategy (s, t), in layer order.
+    strategies: Vec<(usize, usize)>,
 }
 
 impl Bdpt {
     pub fn new(config: BdptConfig) -> Self {
         let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
             .expect("BDPT settings are validated when parsed");
-        Bdpt { config, router }
+        let strategies = match (config.strategy_layers, config.max_bounces) {
+            (true, Some(max)) => (2..=max as usize + 2)
+                .flat_map(|n| (0..n).map(move |s| (s, n - s)))
+                .filter(|&st| st != (1, 1) && st.1 >= 1)
+                .collect(),
+            _ => Vec::new(),
+        };
+        Bdpt {
+            config,
+            router,
+            strategies,
+        }
+    }
+
+    /// Slot of the weighted layer of strategy (s, t) (the unweighted one follows it), counted from
+    /// the first strategy layer.
+    fn strategy_slot(&self, s: usize, t: usize) -> Option<usize> {
+        self.strategies
+            .iter()
+            .position(|&x| x == (s, t))
+            .map(|i| 2 * i)
     }
 
     /// Extends `path` by a random walk from `ray` (pbrt-v4 `RandomWalk`), at most `max_vertices`
@@ -558,7 +580,8 @@ impl Bdpt {
         1.0 / (1.0 + sum)
     }
 
-    /// Contribution of strategy (s, t) to the pixel (`None`) or, for t = 1, to a splat position.
+    /// Unweighted contribution of strategy (s, t), its MIS weight, and where it goes: the pixel
+    /// (`None`) or, for t = 1, a splat position.
     #[allow(clippy::too_many_arguments)]
     fn connect(
         &self,
@@ -571,7 +594,7 @@ impl Bdpt {
         u_point: Vec2,
         u_lens: Vec2,
         counters: &mut Counters,
-    ) -> Option<(Rgb, Option<Vec2>)> {
+    ) -> Option<(Rgb, f32, Option<Vec2>)> {
         // An escaped camera path can only be completed by s = 0.
         if t > 1 && s != 0 && camera[t - 1].infinite {
             return None;
@@ -664,7 +687,7 @@ impl Bdpt {
             l
         };
         let w = Self::mis_weight(scene, light, camera, sampled, s, t, self.config.mis);
-        Some((l * w, raster))
+        Some((l, w, raster))
     }
 }
 
@@ -704,7 +727,7 @@ struct TileResult {
     w: u32,
     /// Per pixel: the full image, then each layer.
     sums: Vec<PixelSums>,
-    /// (pixel, layer, value).
+    /// (pixel, slot, value).
     splats: Vec<(u32, u32, Rgb)>,
     counters: Counters,
 }
@@ -731,7 +754,9 @@ impl SamplerVisitor for RenderWith<'_> {
             .collect();
         progress.start(width as u64 * height as u64);
         let router = &bdpt.router;
-        let slots = 1 + router.layer_count();
+        // Per pixel: the full image, the class or bounce layers, then two per strategy.
+        let first_strategy = 1 + router.layer_count();
+        let slots = first_strategy + 2 * bdpt.strategies.len();
         let results: Vec<TileResult> = tiles
             .par_iter()
             .map(|&(x0, y0)| {
@@ -801,7 +826,7 @@ impl SamplerVisitor for RenderWith<'_> {
                                     let Some(layer) = router.route(&class) else {
                                         continue;
                                     };
-                                    let Some((c, raster)) = bdpt.connect(
+                                    let Some((unweighted, w, raster)) = bdpt.connect(
                                         scene,
                                         &light,
                                         &camera,
@@ -814,11 +839,26 @@ impl SamplerVisitor for RenderWith<'_> {
                                     ) else {
                                         continue;
                                     };
+                                    let c = unweighted * w;
                                     if !c.is_finite() {
                                         counters.non_finite
                                             [if raster.is_some() { SPLAT } else { CONNECTION }] +=
                                             1;
                                         continue;
+                                    }
+                                    // (slot, value) pairs this contribution adds to.
+                                    let mut targets = [(0usize, c); 4];
+                                    let mut n = 1;
+                                    if first_strategy > 1 {
+                                        targets[n] = (1 + layer, c);
+                                        n += 1;
+                                    }
+                                    if let Some(k) = bdpt.strategy_slot(s, t)
+                                        && unweighted.is_finite()
+                                    {
+                                        targets[n] = (first_strategy + k, c);
+                                        targets[n + 1] = (first_strategy + k + 1, unweighted);
+                                        n += 2;
                                     }
                                     match raster {
                                         Some(r) => {
@@ -826,12 +866,13 @@ impl SamplerVisitor for RenderWith<'_> {
                                                 (r.x as u32).min(width - 1),
                                                 (r.y as u32).min(height - 1),
                                             );
-                                            splats.push((py * width + px, layer as u32, c));
+                                            for &(slot, v) in &targets[..n] {
+                                                splats.push((py * width + px, slot as u32, v));
+                                            }
                                         }
                                         None => {
-                                            l[0] += c;
-                                            if slots > 1 {
-                                                l[1 + layer] += c;
+                                            for &(slot, v) in &targets[..n] {
+                                                l[slot] += v;
                                             }
                                         }
                                     }
@@ -872,19 +913,12 @@ impl SamplerVisitor for RenderWith<'_> {
                     film.pixels[(y * width + x) as usize] = *s;
                 }
             }
-            for &(pixel, layer, c) in &r.splats {
+            for &(pixel, slot, c) in &r.splats {
                 let v = [c.r as f64 * scale, c.g as f64 * scale, c.b as f64 * scale];
-                let base = pixel as usize * slots;
-                let targets: &[usize] = if slots > 1 {
-                    &[base, base + 1 + layer as usize]
-                } else {
-                    &[base]
-                };
-                for &i in targets {
-                    for k in 0..3 {
-                        splat_sum[i][k] += v[k];
-                        splat_sq[i][k] += v[k] * v[k];
-                    }
+                let i = pixel as usize * slots + slot as usize;
+                for k in 0..3 {
+                    splat_sum[i][k] += v[k];
+                    splat_sq[i][k] += v[k] * v[k];
                 }
             }
         }
@@ -907,9 +941,14 @@ impl SamplerVisitor for RenderWith<'_> {
             &counters,
             &["connection", "splat"],
         );
+        let names = router.layer_names().into_iter().chain(
+            bdpt.strategies
+                .iter()
+                .flat_map(|(s, t)| [format!("s{s}t{t}"), format!("s{s}t{t}.unweighted")]),
+        );
         RenderOutput {
             film,
-            layers: named(router.layer_names(), films),
+            layers: names.zip(films).collect(),
             stats,
         }
     }
@@ -976,6 +1015,7 @@ mod tests {
                 min_bounces: 0,
                 russian_roulette: None,
                 sampler: Default::default(),
+                strategy_layers: false,
                 paths: None,
                 layers: Default::default(),
             });

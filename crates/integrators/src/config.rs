@@ -47,6 +47,7 @@ pub struct BdptConfig {
     pub russian_roulette: Option<u32>,
     pub sampler: SamplerConfig,
     pub mis: Mis,
+    pub strategy_layers: bool,
     pub paths: Option<String>,
     pub layers: Layers,
 }
@@ -93,6 +94,11 @@ pub struct BdptConfigRaw {
     /// Strategy weights: `Balance`, `Power`, `Uniform` or `Only(s: S, t: T)`. Default `Balance`.
     #[serde(default)]
     pub mis: Mis,
+    /// Also write every strategy (s, t) as layers `s{s}t{t}` (MIS-weighted; they sum to the image)
+    /// and `s{s}t{t}.unweighted` (the strategy's own estimate of its paths). Needs `max_bounces`.
+    /// Default false.
+    #[serde(default)]
+    pub strategy_layers: bool,
     /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
     /// README's "Path classes"); `None` renders every path. Default `None`.
     #[serde(default)]
@@ -115,12 +121,18 @@ impl TryFrom<BdptConfigRaw> for BdptConfig {
             ));
         }
         Router::check(r.paths.as_deref(), &r.layers)?;
+        if r.strategy_layers && r.max_bounces.is_none() {
+            return Err(
+                "strategy_layers needs max_bounces (it bounds the number of strategies)".into(),
+            );
+        }
         Ok(BdptConfig {
             max_bounces: r.max_bounces,
             min_bounces: r.min_bounces,
             russian_roulette: r.russian_roulette,
             sampler: r.sampler,
             mis: r.mis,
+            strategy_layers: r.strategy_layers,
             paths: r.paths,
             layers: r.layers,
         })
@@ -135,6 +147,7 @@ impl From<BdptConfig> for BdptConfigRaw {
             russian_roulette: c.russian_roulette,
             sampler: c.sampler,
             mis: c.mis,
+            strategy_layers: c.strategy_layers,
             paths: c.paths,
             layers: c.layers,
         }
