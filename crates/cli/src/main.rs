@@ -3,6 +3,7 @@
 mod experiment;
 mod progress;
 mod render;
+mod replay;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -25,6 +26,7 @@ enum Command {
     Plot(experiment::PlotArgs),
     Merge(experiment::MergeArgs),
     Convergence(experiment::ConvergenceArgs),
+    Replay(replay::ReplayArgs),
 }
 
 fn main() -> ExitCode {
@@ -35,6 +37,7 @@ fn main() -> ExitCode {
         Command::Plot(args) => experiment::plot(args),
         Command::Merge(args) => experiment::merge_shards(args),
         Command::Convergence(args) => experiment::convergence(args),
+        Command::Replay(args) => replay::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

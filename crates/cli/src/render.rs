@@ -111,6 +111,30 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
             s.non_finite
         );
     }
+    if !out.outliers.is_empty() {
+        let path = args.output.with_extension("outliers.json");
+        let json = serde_json::json!({
+            "scene": args.scene.display().to_string(),
+            "integrator": config.to_ron(),
+            "seed": args.seed,
+            "spp": args.spp,
+            "replay": "lightlab replay SCENE --integrator '…' --seed SEED --spp SPP --pixel X,Y --sample I",
+            "outliers": out.outliers,
+        });
+        write_atomic(
+            &path,
+            serde_json::to_string_pretty(&json)
+                .expect("outliers serialise")
+                .as_bytes(),
+        )
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+        println!(
+            "{} outliers logged by strategy {:?}: {}",
+            out.outliers.len(),
+            out.stats.outliers,
+            path.display()
+        );
+    }
     for (name, film) in &out.layers {
         let (m, e) = film.average();
         println!(

@@ -691,6 +691,264 @@ impl Bdpt {
     }
 }
 
+/// Seed offset of the light subpaths' random-number stream.
+const LIGHT_STREAM: u64 = 0x6c69_6768_7470_6174;
+
+/// Pixel samples before which no contribution is called an outlier (the running mean is too
+/// uncertain before).
+const OUTLIER_MIN_SAMPLES: u64 = 8;
+
+/// A logged contribution: where it came from (pixel, sample index: with the seed, enough to
+/// replay it), which strategy and path, its value and MIS weight, and the area-measure densities
+/// of the full path's vertices y₀ … y_{s−1} z_{t−1} … z₀ along the light and camera subpaths.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Outlier {
+    pub pixel: [u32; 2],
+    pub sample: u64,
+    pub s: u32,
+    pub t: u32,
+    pub class: String,
+    /// Weighted contribution (what the image receives).
+    pub value: [f32; 3],
+    pub unweighted: [f32; 3],
+    pub mis_weight: f32,
+    /// Raster position of a t = 1 splat.
+    pub raster: Option<[f32; 2]>,
+    /// The pixel's running mean before this sample.
+    pub pixel_mean: [f64; 3],
+    pub pdf_fwd: Vec<f32>,
+    pub pdf_rev: Vec<f32>,
+}
+
+impl Outlier {
+    fn new(
+        pixel: (u32, u32),
+        sample: u64,
+        c: &Contribution,
+        pixel_mean: [f64; 3],
+        light: &[Vertex],
+        camera: &[Vertex],
+    ) -> Outlier {
+        let path = light.iter().chain(camera.iter().rev());
+        let v = c.unweighted * c.weight;
+        Outlier {
+            pixel: [pixel.0, pixel.1],
+            sample,
+            s: c.s as u32,
+            t: c.t as u32,
+            class: c.class.to_heckbert(),
+            value: [v.r, v.g, v.b],
+            unweighted: [c.unweighted.r, c.unweighted.g, c.unweighted.b],
+            mis_weight: c.weight,
+            raster: c.raster.map(|r| [r.x, r.y]),
+            pixel_mean,
+            pdf_fwd: path.clone().map(|v| v.pdf_fwd).collect(),
+            pdf_rev: path.map(|v| v.pdf_rev).collect(),
+        }
+    }
+}
+
+/// The pixel sample and strategy a splat came from, to replay it if it turns out an outlier.
+#[derive(Clone, Copy, Debug)]
+struct SplatSource {
+    /// Index of its full-image entry in the tile's splats.
+    splat: u32,
+    pixel: (u32, u32),
+    sample: u32,
+    s: u16,
+    t: u16,
+}
+
+/// One strategy's contribution to one pixel sample.
+#[derive(Clone, Copy, Debug)]
+pub struct Contribution {
+    pub s: usize,
+    pub t: usize,
+    /// The joined path's class, light first.
+    pub class: PathClass,
+    /// Its layer (see `Router::route`).
+    pub layer: usize,
+    /// The strategy's own estimate, before the MIS weight.
+    pub unweighted: Rgb,
+    pub weight: f32,
+    /// Where a t = 1 contribution lands; `None` for the sample's own pixel.
+    pub raster: Option<Vec2>,
+}
+
+impl Bdpt {
+    /// Traces pixel sample `index` of `pixel` and calls `visit(contribution, light subpath, camera
+    /// subpath)` for every strategy that contributes, in the order the renderer adds them. Rendering
+    /// and [`Bdpt::replay`] both go through here, so a replay reproduces a render's sample exactly.
+    #[allow(clippy::too_many_arguments)]
+    fn pixel_sample<S: Sampler>(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        (x, y): (u32, u32),
+        index: u64,
+        sampler: &mut S,
+        light_sampler: &mut Independent,
+        (camera, light): (&mut Vec<Vertex>, &mut Vec<Vertex>),
+        counters: &mut Counters,
+        mut visit: impl FnMut(&Contribution, &[Vertex], &[Vertex]),
+    ) {
+        let cfg = &self.config;
+        let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX - 2);
+        let pixel = y as u64 * scene.camera.width as u64 + x as u64;
+        sampler.start_pixel_sample(seed, pixel, index);
+        light_sampler.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, index);
+        let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+        camera.clear();
+        light.clear();
+        self.camera_subpath(
+            scene,
+            film,
+            sampler,
+            max_bounces.saturating_add(2),
+            camera,
+            counters,
+        );
+        self.light_subpath(
+            scene,
+            light_sampler,
+            max_bounces.saturating_add(1),
+            light,
+            counters,
+        );
+        for t in 1..=camera.len() {
+            let (u_light, u_point, u_lens) = (
+                light_sampler.next_1d(),
+                light_sampler.next_2d(),
+                light_sampler.next_2d(),
+            );
+            for s in 0..=light.len() {
+                let depth = (s + t) as i64 - 2;
+                if (s == 1 && t == 1)
+                    || depth < cfg.min_bounces as i64
+                    || depth > max_bounces as i64
+                    || cfg.mis.excludes(s, t)
+                {
+                    continue;
+                }
+                // The joined path's class, light first (for s = 0 the last camera vertex is the
+                // emitter, not a scattering vertex).
+                let class = match s {
+                    0 if t >= 2 => camera[t - 2].class.reversed(),
+                    0 => PathClass::EMPTY,
+                    _ => light[s - 1].class.then(camera[t - 1].class.reversed()),
+                };
+                let Some(layer) = self.router.route(&class) else {
+                    continue;
+                };
+                let Some((unweighted, weight, raster)) = self.connect(
+                    scene, light, camera, s, t, u_light, u_point, u_lens, counters,
+                ) else {
+                    continue;
+                };
+                let c = Contribution {
+                    s,
+                    t,
+                    class,
+                    layer,
+                    unweighted,
+                    weight,
+                    raster,
+                };
+                visit(&c, &light[..s.min(light.len())], &camera[..t]);
+            }
+        }
+    }
+
+    /// The splats larger (largest channel) than `factor` times the final mean of the pixel they
+    /// land in, replayed for their provenance.
+    fn splat_outliers(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        spp: u32,
+        results: &[TileResult],
+        film: &Film,
+        factor: f32,
+    ) -> Vec<Outlier> {
+        let mut out = Vec::new();
+        for r in results {
+            for src in &r.splat_sources {
+                let (pixel, _, value) = r.splats[src.splat as usize];
+                let mean = film.mean(pixel as usize);
+                let scale = mean[0].max(mean[1]).max(mean[2]);
+                if (value.max_component() as f64) <= factor as f64 * scale.max(f64::MIN_POSITIVE) {
+                    continue;
+                }
+                let replayed = self.replay(scene, seed, spp, src.pixel, src.sample as u64);
+                if let Some(mut o) = replayed.into_iter().find(|o| {
+                    (o.s, o.t) == (src.s as u32, src.t as u32)
+                        && o.value == [value.r, value.g, value.b]
+                }) {
+                    o.pixel_mean = mean;
+                    out.push(o);
+                }
+            }
+        }
+        out
+    }
+
+    /// Every contribution of pixel sample `index` of `pixel` (x, y), recomputed from (seed, pixel,
+    /// sample index) alone: the deterministic replay of a logged outlier.
+    /// `spp` is the render's samples per pixel (stratified samplers depend on it).
+    pub fn replay(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        spp: u32,
+        pixel: (u32, u32),
+        index: u64,
+    ) -> Vec<Outlier> {
+        struct Replay<'a> {
+            bdpt: &'a Bdpt,
+            scene: &'a Scene,
+            seed: u64,
+            pixel: (u32, u32),
+            index: u64,
+        }
+        impl SamplerVisitor for Replay<'_> {
+            type Output = Vec<Outlier>;
+            fn visit<S: Sampler + Clone + Send + Sync + 'static>(
+                self,
+                mut sampler: S,
+            ) -> Vec<Outlier> {
+                let mut out = Vec::new();
+                let (mut camera, mut light) = (Vec::new(), Vec::new());
+                self.bdpt.pixel_sample(
+                    self.scene,
+                    self.seed,
+                    self.pixel,
+                    self.index,
+                    &mut sampler,
+                    &mut Independent::new(),
+                    (&mut camera, &mut light),
+                    &mut Counters::default(),
+                    |c, light, camera| {
+                        out.push(Outlier::new(
+                            self.pixel, self.index, c, [0.0; 3], light, camera,
+                        ))
+                    },
+                );
+                out
+            }
+        }
+        self.config.sampler.dispatch(
+            spp,
+            Replay {
+                bdpt: self,
+                scene,
+                seed,
+                pixel,
+                index,
+            },
+        )
+    }
+}
+
 impl Integrator for Bdpt {
     fn render(
         &self,
@@ -729,6 +987,9 @@ struct TileResult {
     sums: Vec<PixelSums>,
     /// (pixel, slot, value).
     splats: Vec<(u32, u32, Rgb)>,
+    /// Where each splat of the full image came from (only with `outliers`).
+    splat_sources: Vec<SplatSource>,
+    outliers: Vec<Outlier>,
     counters: Counters,
 }
 
@@ -748,7 +1009,6 @@ impl SamplerVisitor for RenderWith<'_> {
         let start = Instant::now();
         let cfg = &bdpt.config;
         let (width, height) = (scene.camera.width, scene.camera.height);
-        let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX - 2);
         let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
             .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
             .collect();
@@ -764,103 +1024,82 @@ impl SamplerVisitor for RenderWith<'_> {
                 let mut counters = Counters::default();
                 let mut sums = vec![PixelSums::default(); (w * h) as usize * slots];
                 let mut splats = Vec::new();
+                let mut outliers = Vec::new();
+                // Non-finite counts of the current sample (the sample holds `counters`).
+                let mut counters_nf = [0u64; 2];
+                let mut splat_sources = Vec::new();
                 let mut l = vec![Rgb::BLACK; slots];
                 let mut camera = Vec::new();
                 let mut light = Vec::new();
                 for y in 0..h {
                     for x in 0..w {
-                        let pixel = (y0 + y) as u64 * width as u64 + (x0 + x) as u64;
                         let mut sampler = prototype.clone();
                         let mut light_sampler = Independent::new();
                         for i in 0..budget.spp {
-                            sampler.start_pixel_sample(seed, pixel, i as u64);
-                            light_sampler.start_pixel_sample(
-                                seed ^ 0x6c69_6768_7470_6174,
-                                pixel,
-                                i as u64,
-                            );
-                            let film =
-                                Vec2::new((x0 + x) as f32, (y0 + y) as f32) + sampler.next_2d();
-                            camera.clear();
-                            light.clear();
-                            bdpt.camera_subpath(
-                                scene,
-                                film,
-                                &mut sampler,
-                                max_bounces.saturating_add(2),
-                                &mut camera,
-                                &mut counters,
-                            );
-                            bdpt.light_subpath(
-                                scene,
-                                &mut light_sampler,
-                                max_bounces.saturating_add(1),
-                                &mut light,
-                                &mut counters,
-                            );
+                            let k = (y * w + x) as usize * slots;
+                            let running = sums[k];
                             l.fill(Rgb::BLACK);
-                            for t in 1..=camera.len() {
-                                let (u_light, u_point, u_lens) = (
-                                    light_sampler.next_1d(),
-                                    light_sampler.next_2d(),
-                                    light_sampler.next_2d(),
-                                );
-                                for s in 0..=light.len() {
-                                    let depth = (s + t) as i64 - 2;
-                                    if (s == 1 && t == 1)
-                                        || depth < cfg.min_bounces as i64
-                                        || depth > max_bounces as i64
-                                        || cfg.mis.excludes(s, t)
-                                    {
-                                        continue;
+                            bdpt.pixel_sample(
+                                scene,
+                                seed,
+                                (x0 + x, y0 + y),
+                                i as u64,
+                                &mut sampler,
+                                &mut light_sampler,
+                                (&mut camera, &mut light),
+                                &mut counters,
+                                |c, light, camera| {
+                                    let value = c.unweighted * c.weight;
+                                    let finite = value.is_finite();
+                                    if !finite {
+                                        counters_nf[if c.raster.is_some() {
+                                            SPLAT
+                                        } else {
+                                            CONNECTION
+                                        }] += 1;
                                     }
-                                    // The joined path's class, light first (for s = 0 the last
-                                    // camera vertex is the emitter, not a scattering vertex).
-                                    let class = match s {
-                                        0 if t >= 2 => camera[t - 2].class.reversed(),
-                                        0 => PathClass::EMPTY,
-                                        _ => {
-                                            light[s - 1].class.then(camera[t - 1].class.reversed())
+                                    // Camera-side contributions are compared with their
+                                    // pixel's running mean here; splats (t = 1), which land in
+                                    // other pixels, with their pixel's final mean after the
+                                    // render (see `splat_outliers`).
+                                    let mean = running.mean();
+                                    let scale = mean[0].max(mean[1]).max(mean[2]);
+                                    let outlier = match cfg.outliers {
+                                        Some(factor) if c.raster.is_none() => {
+                                            running.count >= OUTLIER_MIN_SAMPLES
+                                                && value.max_component() as f64
+                                                    > factor as f64 * scale.max(f64::MIN_POSITIVE)
                                         }
+                                        _ => false,
                                     };
-                                    let Some(layer) = router.route(&class) else {
-                                        continue;
-                                    };
-                                    let Some((unweighted, w, raster)) = bdpt.connect(
-                                        scene,
-                                        &light,
-                                        &camera,
-                                        s,
-                                        t,
-                                        u_light,
-                                        u_point,
-                                        u_lens,
-                                        &mut counters,
-                                    ) else {
-                                        continue;
-                                    };
-                                    let c = unweighted * w;
-                                    if !c.is_finite() {
-                                        counters.non_finite
-                                            [if raster.is_some() { SPLAT } else { CONNECTION }] +=
-                                            1;
-                                        continue;
+                                    if !finite || outlier {
+                                        outliers.push(Outlier::new(
+                                            (x0 + x, y0 + y),
+                                            i as u64,
+                                            c,
+                                            mean,
+                                            light,
+                                            camera,
+                                        ));
+                                    }
+                                    if !finite {
+                                        return;
                                     }
                                     // (slot, value) pairs this contribution adds to.
-                                    let mut targets = [(0usize, c); 4];
+                                    let mut targets = [(0usize, value); 4];
                                     let mut n = 1;
                                     if first_strategy > 1 {
-                                        targets[n] = (1 + layer, c);
+                                        targets[n] = (1 + c.layer, value);
                                         n += 1;
                                     }
-                                    if let Some(k) = bdpt.strategy_slot(s, t)
-                                        && unweighted.is_finite()
+                                    if let Some(k) = bdpt.strategy_slot(c.s, c.t)
+                                        && c.unweighted.is_finite()
                                     {
-                                        targets[n] = (first_strategy + k, c);
-                                        targets[n + 1] = (first_strategy + k + 1, unweighted);
+                                        targets[n] = (first_strategy + k, value);
+                                        targets[n + 1] = (first_strategy + k + 1, c.unweighted);
                                         n += 2;
                                     }
-                                    match raster {
+                                    match c.raster {
                                         Some(r) => {
                                             let (px, py) = (
                                                 (r.x as u32).min(width - 1),
@@ -869,6 +1108,15 @@ impl SamplerVisitor for RenderWith<'_> {
                                             for &(slot, v) in &targets[..n] {
                                                 splats.push((py * width + px, slot as u32, v));
                                             }
+                                            if cfg.outliers.is_some() {
+                                                splat_sources.push(SplatSource {
+                                                    splat: (splats.len() - n) as u32,
+                                                    pixel: (x0 + x, y0 + y),
+                                                    sample: i,
+                                                    s: c.s as u16,
+                                                    t: c.t as u16,
+                                                });
+                                            }
                                         }
                                         None => {
                                             for &(slot, v) in &targets[..n] {
@@ -876,9 +1124,12 @@ impl SamplerVisitor for RenderWith<'_> {
                                             }
                                         }
                                     }
-                                }
+                                },
+                            );
+                            for (k, n) in counters_nf.iter_mut().enumerate() {
+                                counters.non_finite[k] += *n;
+                                *n = 0;
                             }
-                            let k = (y * w + x) as usize * slots;
                             for (sum, v) in sums[k..k + slots].iter_mut().zip(&l) {
                                 sum.add([v.r as f64, v.g as f64, v.b as f64]);
                             }
@@ -892,6 +1143,8 @@ impl SamplerVisitor for RenderWith<'_> {
                     w,
                     sums,
                     splats,
+                    splat_sources,
+                    outliers,
                     counters,
                 }
             })
@@ -941,6 +1194,22 @@ impl SamplerVisitor for RenderWith<'_> {
             &counters,
             &["connection", "splat"],
         );
+        let mut outliers: Vec<Outlier> = results
+            .iter()
+            .flat_map(|r| r.outliers.iter().cloned())
+            .collect();
+        if let Some(factor) = cfg.outliers {
+            outliers.extend(bdpt.splat_outliers(scene, seed, budget.spp, &results, &film, factor));
+        }
+        let mut per_strategy: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
+        for o in &outliers {
+            *per_strategy.entry((o.s, o.t)).or_default() += 1;
+        }
+        let mut stats = stats;
+        stats.outliers = per_strategy
+            .into_iter()
+            .map(|((s, t), n)| (format!("s{s}t{t}"), n))
+            .collect();
         let names = router.layer_names().into_iter().chain(
             bdpt.strategies
                 .iter()
@@ -949,6 +1218,7 @@ impl SamplerVisitor for RenderWith<'_> {
         RenderOutput {
             film,
             layers: names.zip(films).collect(),
+            outliers,
             stats,
         }
     }
@@ -1016,6 +1286,7 @@ mod tests {
                 russian_roulette: None,
                 sampler: Default::default(),
                 strategy_layers: false,
+                outliers: None,
                 paths: None,
                 layers: Default::default(),
             });

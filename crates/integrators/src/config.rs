@@ -48,6 +48,7 @@ pub struct BdptConfig {
     pub sampler: SamplerConfig,
     pub mis: Mis,
     pub strategy_layers: bool,
+    pub outliers: Option<f32>,
     pub paths: Option<String>,
     pub layers: Layers,
 }
@@ -99,6 +100,12 @@ pub struct BdptConfigRaw {
     /// Default false.
     #[serde(default)]
     pub strategy_layers: bool,
+    /// Log every contribution larger (in its largest channel) than this multiple of its pixel's
+    /// running mean, with its provenance (pixel, sample index, strategy, path class, densities,
+    /// MIS weight), for replay with `lightlab replay`. Non-finite contributions are always logged.
+    /// Default `None` (only non-finite ones).
+    #[serde(default)]
+    pub outliers: Option<f32>,
     /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
     /// README's "Path classes"); `None` renders every path. Default `None`.
     #[serde(default)]
@@ -121,6 +128,13 @@ impl TryFrom<BdptConfigRaw> for BdptConfig {
             ));
         }
         Router::check(r.paths.as_deref(), &r.layers)?;
+        if let Some(f) = r.outliers
+            && !(f > 1.0 && f.is_finite())
+        {
+            return Err(format!(
+                "outliers is a multiple of the pixel's running mean and must be finite and > 1, got {f}"
+            ));
+        }
         if r.strategy_layers && r.max_bounces.is_none() {
             return Err(
                 "strategy_layers needs max_bounces (it bounds the number of strategies)".into(),
@@ -133,6 +147,7 @@ impl TryFrom<BdptConfigRaw> for BdptConfig {
             sampler: r.sampler,
             mis: r.mis,
             strategy_layers: r.strategy_layers,
+            outliers: r.outliers,
             paths: r.paths,
             layers: r.layers,
         })
@@ -148,6 +163,7 @@ impl From<BdptConfig> for BdptConfigRaw {
             sampler: c.sampler,
             mis: c.mis,
             strategy_layers: c.strategy_layers,
+            outliers: c.outliers,
             paths: c.paths,
             layers: c.layers,
         }

@@ -309,6 +309,7 @@ impl Integrator for LightTracer {
         );
         RenderOutput {
             film,
+            outliers: Vec::new(),
             layers: named(self.router.layer_names(), films),
             stats,
         }

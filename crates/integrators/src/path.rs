@@ -354,6 +354,7 @@ impl SamplerVisitor for RenderWith<'_> {
         );
         RenderOutput {
             film,
+            outliers: Vec::new(),
             layers: named(tracer.router.layer_names(), layers),
             stats,
         }

@@ -35,6 +35,8 @@ pub struct RenderStats {
     pub photons_stored: u64,
     /// Contributions that were NaN or infinite and were left out of the film, by technique.
     pub non_finite: Vec<(String, u64)>,
+    /// Logged outliers (and non-finite contributions), by strategy (`Bdpt`'s `outliers` setting).
+    pub outliers: Vec<(String, u64)>,
 }
 
 impl RenderStats {
@@ -64,6 +66,7 @@ impl RenderStats {
             samples_per_second: samples as f64 / wall.max(1e-9),
             photons: 0,
             photons_stored: 0,
+            outliers: Vec::new(),
             non_finite: techniques
                 .iter()
                 .zip(counters.non_finite)
@@ -82,6 +85,8 @@ pub struct RenderOutput {
     pub film: Film,
     /// The layers the integrator's `layers` setting asked for, named; they sum to `film`.
     pub layers: Vec<(String, Film)>,
+    /// Contributions logged for provenance (`Bdpt` with `outliers`, and every non-finite one).
+    pub outliers: Vec<crate::bdpt::Outlier>,
     pub stats: RenderStats,
 }
 

@@ -291,6 +291,7 @@ impl Integrator for PhotonMapper {
             + maps.caustic.as_ref().map_or(0, |m| m.len() as u64);
         RenderOutput {
             film,
+            outliers: Vec::new(),
             layers: named(router.layer_names(), layers),
             stats,
         }

@@ -283,6 +283,7 @@ impl Progressive {
         let film = films.remove(0);
         RenderOutput {
             film,
+            outliers: Vec::new(),
             layers: named(router.layer_names(), films),
             stats,
         }
