@@ -331,9 +331,16 @@ impl Bdpt {
             pdf_fwd_w = s.pdf;
             let n = path.len();
             if s.delta {
+                // A specular vertex: the densities of its two directions are the lobe's selection
+                // probability times a Dirac delta in solid angle. Both directions carry the same
+                // delta (mirror reflection and refraction preserve solid angle up to the η² factors,
+                // which cancel between entering and leaving a closed dielectric), so it cancels in
+                // every MIS ratio (Veach 1997, §10.3.5); keeping the lobe probability, rather than
+                // pbrt's 0-remapped-to-1, keeps the cos/d² conversions of the neighbouring vertices,
+                // and with them the weights of paths through specular chains independent of scale.
+                // Dielectric Fresnel terms are the same from either side, so reverse = forward.
                 path[n - 1].delta = true;
-                pdf_fwd_w = 0.0;
-                pdf_rev_w = 0.0;
+                pdf_rev_w = s.pdf;
             }
             let this = path[n - 1];
             path[n - 2].pdf_rev = this.convert_density(pdf_rev_w, &path[n - 2]);
