@@ -4,6 +4,7 @@
 use clap::Args;
 use lightlab_integrators::IntegratorConfig;
 use lightlab_integrators::bdpt::Bdpt;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Replay one pixel sample of a `Bdpt` render deterministically — e.g. an outlier from
@@ -66,9 +67,10 @@ pub fn run(args: ReplayArgs) -> Result<(), String> {
     }
     let contributions =
         Bdpt::new(bdpt).replay(&scene, args.seed, args.spp, args.pixel, args.sample);
-    println!(
-        "{}",
-        serde_json::to_string_pretty(&contributions).expect("contributions serialise")
-    );
-    Ok(())
+    let json = serde_json::to_string_pretty(&contributions).expect("contributions serialise");
+    // A closed pipe (`| head`) is not an error.
+    match writeln!(std::io::stdout(), "{json}") {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(format!("stdout: {e}")),
+        _ => Ok(()),
+    }
 }

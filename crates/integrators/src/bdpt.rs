@@ -13,7 +13,13 @@
 //! pbrt-v4 §16.3.4): each vertex stores `pdf_fwd` (density of its generation along its own subpath)
 //! and `pdf_rev` (density of its generation from the other side), and the weight of (s, t) is
 //! 1 / Σᵢ (pᵢ / p_s). Strategies that cannot produce a path (a delta vertex at a connection) are left
-//! out of the sum. Russian roulette decides how long subpaths are, not the densities in the weights,
+//! out of the sum. At a specular vertex both densities keep the lobe's selection probability (the
+//! common Dirac factor cancels in the ratios), unlike pbrt's zero-then-remap-to-one, which loses the
+//! cos/d² conversions beside specular chains (see `random_walk`).
+//!
+//! Research views: `strategy_layers` writes every strategy as a layer, weighted and unweighted;
+//! `outliers` logs large contributions with their provenance, and [`Bdpt::replay`] recomputes any
+//! pixel sample from (seed, pixel, sample index). Russian roulette decides how long subpaths are, not the densities in the weights,
 //! so the weights of all strategies of a path still sum to one.
 //!
 //! Sample dimensions per pixel sample: pixel (2), lens (2), then the camera subpath (per vertex:
