@@ -414,11 +414,6 @@ impl IntegratorConfig {
         Ok(self)
     }
 
-    /// The layers this integrator is set to write.
-    pub fn layers(&self) -> Layers {
-        self.clone().paths_and_layers().1.clone()
-    }
-
     pub fn build(&self) -> Box<dyn Integrator> {
         match self {
             IntegratorConfig::Path(c) => Box::new(PathTracer::new(c.clone())),

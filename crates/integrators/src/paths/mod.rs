@@ -127,12 +127,6 @@ impl Router {
             Split::Classes(r) => r.iter().position(|e| e.matches(class)).unwrap_or(r.len()),
         })
     }
-
-    /// Whether every path is rendered into the full image alone (no bookkeeping needed).
-    #[inline]
-    pub fn is_trivial(&self) -> bool {
-        self.filter.is_none() && matches!(self.split, Split::None)
-    }
 }
 
 /// A sample's contributions: `[0]` the full image, `[1 + l]` layer l.
