@@ -22,7 +22,7 @@
 //! ```
 //!
 //! Every statistical test fails by chance with its significance level α. The defaults split a
-//! suite-wide false-failure rate of 1 % over 100 tests with Šidák's correction (see [`chi2`] and
+//! suite-wide false-failure rate of 1 % over 250 tests with Šidák's correction (see [`chi2`] and
 //! [`sidak`]), so a suite of at most 100 such tests fails spuriously at most once in a hundred
 //! runs; the fixed seeds make any given run reproducible.
 
