@@ -23,7 +23,7 @@
 //!
 //! Every statistical test fails by chance with its significance level α. The defaults split a
 //! suite-wide false-failure rate of 1 % over 250 tests with Šidák's correction (see [`chi2`] and
-//! [`sidak`]), so a suite of at most 100 such tests fails spuriously at most once in a hundred
+//! [`sidak`]), so a suite of at most 250 such tests fails spuriously at most once in a hundred
 //! runs; the fixed seeds make any given run reproducible.
 
 pub mod chi2;
