@@ -32,6 +32,7 @@ use crate::config::{BdptConfig, Mis};
 use crate::film::{Film, PixelSums};
 use crate::paths::{PathClass, Router};
 use crate::render::Counters;
+use crate::roulette::survives;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::{Vec2, Vec3};
 use lightlab_core::{Progress, Ray, Rgb, TransportMode};
@@ -350,14 +351,9 @@ impl Bdpt {
             }
             let this = path[n - 1];
             path[n - 2].pdf_rev = this.convert_density(pdf_rev_w, &path[n - 2]);
-            if let Some(rr) = self.config.russian_roulette
-                && added >= rr
-            {
-                let survive = beta.max_component().min(1.0);
-                if !(u_rr < survive) {
-                    break;
-                }
-                beta /= survive;
+            let score = beta.max_component();
+            if !survives(self.config.russian_roulette, added, score, u_rr, &mut beta) {
+                break;
             }
             ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
         }

@@ -15,6 +15,7 @@ pub mod path;
 pub mod paths;
 pub mod photon;
 mod render;
+mod roulette;
 
 pub use config::{BdptConfig, IntegratorConfig, LightConfig, Mis, Strategy};
 pub use film::{Film, PixelSums};

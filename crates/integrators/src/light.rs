@@ -24,6 +24,7 @@ use crate::config::LightConfig;
 use crate::film::{Film, PixelSums};
 use crate::paths::{PathClass, Router};
 use crate::render::{Counters, named};
+use crate::roulette::survives;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, Rgb, TransportMode};
@@ -215,14 +216,9 @@ impl LightTracer {
                 break;
             }
             beta *= s.weight;
-            if let Some(rr) = cfg.russian_roulette
-                && depth >= rr
-            {
-                let survive = beta.max_component().min(1.0);
-                if !(u_rr < survive) {
-                    break;
-                }
-                beta /= survive;
+            let score = beta.max_component();
+            if !survives(cfg.russian_roulette, depth, score, u_rr, &mut beta) {
+                break;
             }
             ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
         }

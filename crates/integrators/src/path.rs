@@ -15,6 +15,7 @@ use crate::film::PixelSums;
 use crate::nee::sample_direct;
 use crate::paths::{Deposit, PathClass, Router};
 use crate::render::{Counters, named, render_tiles};
+use crate::roulette::survives;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::{Vec2, Vec3};
 use lightlab_core::{INV_2PI, INV_4PI, Progress, Rgb, TransportMode};
@@ -202,14 +203,9 @@ impl PathTracer {
             prev_bsdf_pdf = step.pdf;
             prev_p = hit.p;
             depth += 1;
-            if let Some(rr) = cfg.russian_roulette
-                && depth >= rr
-            {
-                let survive = (beta.max_component() * eta_scale).min(1.0);
-                if !(u_rr < survive) {
-                    break;
-                }
-                beta /= survive;
+            let score = beta.max_component() * eta_scale;
+            if !survives(cfg.russian_roulette, depth, score, u_rr, &mut beta) {
+                break;
             }
             ray = spawn_ray(hit.p, hit.p_error, hit.ng, step.wi);
         }

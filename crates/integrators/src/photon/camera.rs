@@ -12,6 +12,7 @@ use super::map::GatherPoint;
 use crate::nee::sample_direct;
 use crate::paths::{Deposit, PathClass, Router};
 use crate::render::Counters;
+use crate::roulette::survives;
 use glam::Vec2;
 use lightlab_core::{INV_4PI, Rgb, TransportMode};
 use lightlab_geometry::{Hit, NO_LIGHT, spawn_ray};
@@ -184,14 +185,9 @@ pub fn walk<S: Sampler, T: Sampler>(
         prev_nee = (cfg.direct && !s.delta).then_some(s.pdf);
         prev_p = hit.p;
         depth += 1;
-        if let Some(rr) = cfg.russian_roulette
-            && depth >= rr
-        {
-            let survive = (beta.max_component() * eta_scale).min(1.0);
-            if !(u_rr < survive) {
-                return None;
-            }
-            beta /= survive;
+        let score = beta.max_component() * eta_scale;
+        if !survives(cfg.russian_roulette, depth, score, u_rr, &mut beta) {
+            return None;
         }
         ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
     }

@@ -13,6 +13,7 @@
 
 use crate::paths::PathClass;
 use crate::render::Counters;
+use crate::roulette::survives;
 use glam::Vec3;
 use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_geometry::spawn_ray;
@@ -197,16 +198,11 @@ fn trace_one(
             return;
         };
         beta *= s.weight;
-        if let Some(rr) = how.russian_roulette
-            && bounces >= rr
-        {
-            // Survival in proportion to the flux relative to the path's start keeps photon powers
-            // roughly equal (Jensen 2001, §5.2).
-            let survive = (beta.max_component() / (power * scale).max_component()).min(1.0);
-            if !(u_rr < survive) {
-                return;
-            }
-            beta /= survive;
+        // Survival in proportion to the flux relative to the path's start keeps photon powers
+        // roughly equal (Jensen 2001, §5.2).
+        let score = beta.max_component() / (power * scale).max_component();
+        if !survives(how.russian_roulette, bounces, score, u_rr, &mut beta) {
+            return;
         }
         ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
     }
