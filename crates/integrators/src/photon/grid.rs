@@ -126,12 +126,14 @@ mod tests {
         let mut s = Independent::new();
         s.start_pixel_sample(3, 0, 0);
         let photons: Vec<Photon> = (0..4000)
-            .map(|i| Photon {
-                p: Vec3::new(s.next_1d(), s.next_1d(), s.next_1d() * 0.2),
-                wi: Vec3::Z,
-                ng: Vec3::Z,
-                power: Rgb::splat(i as f32),
-                class: crate::paths::PathClass::EMPTY.push(lightlab_materials::LobeClass::Diffuse),
+            .map(|i| {
+                Photon::new(
+                    Vec3::new(s.next_1d(), s.next_1d(), s.next_1d() * 0.2),
+                    Vec3::Z,
+                    Vec3::Z,
+                    Rgb::splat(i as f32),
+                    crate::paths::PathClass::EMPTY.push(lightlab_materials::LobeClass::Diffuse),
+                )
             })
             .collect();
         for r in [0.01f32, 0.05, 0.3] {

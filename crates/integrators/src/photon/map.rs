@@ -171,14 +171,15 @@ impl PhotonMap {
 /// f(ωo, ωp) · Φ_p · |ωp·n_s| / |ωp·n_g| for one photon, or zero when its surface faces away.
 #[inline]
 pub fn contribution(g: &GatherPoint, ph: &Photon) -> Rgb {
-    if ph.ng.dot(g.bsdf.ng) <= 0.0 {
+    if ph.ng().dot(g.bsdf.ng) <= 0.0 {
         return Rgb::BLACK;
     }
-    let f = g.bsdf.eval(g.wo, ph.wi, TransportMode::Radiance).f;
+    let wi = ph.wi();
+    let f = g.bsdf.eval(g.wo, wi, TransportMode::Radiance).f;
     if f.is_black() {
         return Rgb::BLACK;
     }
-    let (cos_s, cos_g) = (ph.wi.dot(g.bsdf.frame.n).abs(), ph.wi.dot(g.bsdf.ng).abs());
+    let (cos_s, cos_g) = (wi.dot(g.bsdf.frame.n).abs(), wi.dot(g.bsdf.ng).abs());
     let shading = if cos_s == cos_g { 1.0 } else { cos_s / cos_g };
     f * ph.power * shading
 }
@@ -189,13 +190,17 @@ mod tests {
     use lightlab_samplers::{Independent, Sampler};
 
     fn photon_at(p: Vec3) -> Photon {
-        Photon {
+        photon(p, Vec3::Z, Vec3::Z)
+    }
+
+    fn photon(p: Vec3, wi: Vec3, ng: Vec3) -> Photon {
+        Photon::new(
             p,
-            wi: Vec3::Z,
-            ng: Vec3::Z,
-            power: Rgb::WHITE,
-            class: crate::paths::PathClass::EMPTY.push(lightlab_materials::LobeClass::Diffuse),
-        }
+            wi,
+            ng,
+            Rgb::WHITE,
+            crate::paths::PathClass::EMPTY.push(lightlab_materials::LobeClass::Diffuse),
+        )
     }
 
     /// kd-tree gathers equal a linear scan on random queries, for radius and kNN searches
@@ -252,22 +257,12 @@ mod tests {
                 lightlab_materials::Bsdf::Diffuse { albedo: Rgb::WHITE },
             ),
         };
-        let front = Photon {
-            wi: Vec3::new(0.0, -0.6, 0.8),
-            ..photon_at(Vec3::ZERO)
-        };
+        let front = photon(Vec3::ZERO, Vec3::new(0.0, -0.6, 0.8), Vec3::Z);
         let c = contribution(&g, &front);
-        assert!((c.g - 1.0 / std::f32::consts::PI).abs() < 1e-6, "{c:?}");
-        let far_side = Photon {
-            ng: -Vec3::Z,
-            wi: Vec3::new(0.0, 0.6, -0.8),
-            ..front
-        };
+        assert!((c.g - 1.0 / std::f32::consts::PI).abs() < 1e-5, "{c:?}");
+        let far_side = photon(Vec3::ZERO, Vec3::new(0.0, 0.6, -0.8), -Vec3::Z);
         assert!(contribution(&g, &far_side).is_black());
-        let from_behind = Photon {
-            wi: Vec3::new(0.0, 0.6, -0.8),
-            ..front
-        };
+        let from_behind = photon(Vec3::ZERO, Vec3::new(0.0, 0.6, -0.8), Vec3::Z);
         assert!(contribution(&g, &from_behind).is_black());
     }
 
