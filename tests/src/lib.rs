@@ -43,6 +43,20 @@ pub fn furnace_box(rho: f32, le: f32, res: (u32, u32)) -> String {
     )
 }
 
+/// The shipped `scenes/caustic-sphere.ron` at resolution `res` (it ships at 256 × 256).
+pub fn caustic_sphere(res: (u32, u32)) -> String {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/caustic-sphere.ron"
+    ))
+    .expect("scenes/caustic-sphere.ron is readable");
+    assert!(text.contains("resolution: (256, 256)"));
+    text.replace(
+        "resolution: (256, 256)",
+        &format!("resolution: ({}, {})", res.0, res.1),
+    )
+}
+
 /// The Cornell box of `scenes/cornell-box.ron`, uniformly scaled by `s` about the origin and then
 /// moved by `t`, at resolution `res`. The light's radiance is unchanged, so the image is the same.
 pub fn cornell(s: f32, t: [f32; 3], res: (u32, u32)) -> String {

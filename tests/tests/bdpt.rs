@@ -7,7 +7,8 @@
 
 use lightlab_testkit::stats::{sidak, z_critical};
 use lightlab_tests::{
-    check_furnace_every_bounce, check_plane_under_sky, cornell, regions, render, scene, z,
+    caustic_sphere, check_furnace_every_bounce, check_plane_under_sky, cornell, regions, render,
+    scene, z,
 };
 
 #[test]
@@ -67,12 +68,7 @@ fn cornell_box_agrees_with_path_tracing() {
 
 #[test]
 fn caustic_sphere_and_small_lights_agree_with_path_tracing() {
-    let caustic = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../scenes/caustic-sphere.ron"
-    ))
-    .unwrap()
-    .replace("resolution: (256, 256)", "resolution: (24, 24)");
+    let caustic = caustic_sphere((24, 24));
     let plane = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../scenes/point-over-plane.ron"
@@ -230,12 +226,7 @@ fn strategy_layers_sum_to_the_image_and_each_estimates_its_paths() {
 fn outliers_are_logged_counted_and_replay_exactly() {
     use lightlab_integrators::IntegratorConfig;
     use lightlab_integrators::bdpt::Bdpt;
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../scenes/caustic-sphere.ron"
-    ))
-    .unwrap()
-    .replace("resolution: (256, 256)", "resolution: (32, 24)");
+    let text = caustic_sphere((32, 24));
     let sc = scene(&text);
     // Uniform weights make fireflies of the caustic's hard strategies: something to log.
     let config = "Bdpt(max_bounces: 6, outliers: 20, mis: Uniform)";

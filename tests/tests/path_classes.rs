@@ -6,7 +6,7 @@
 
 use lightlab_integrators::RenderOutput;
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{cornell, furnace, render, scene, z};
+use lightlab_tests::{caustic_sphere, cornell, furnace, render, scene, z};
 
 /// z-tests in this file: 3 channels × (furnace: 4 integrators × 5 layers; caustic: 5 methods ×
 /// 3 classes).
@@ -17,15 +17,7 @@ fn crit() -> f64 {
 }
 
 fn caustic(res: u32) -> lightlab_scene::Scene {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../scenes/caustic-sphere.ron"
-    ))
-    .unwrap()
-    .replace(
-        "resolution: (256, 256)",
-        &format!("resolution: ({res}, {res})"),
-    );
+    let text = caustic_sphere((res, res));
     scene(&text)
 }
 

@@ -17,7 +17,7 @@
 
 use lightlab_integrators::RenderOutput;
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{render, scene, z};
+use lightlab_tests::{caustic_sphere, render, scene, z};
 
 const RES: (u32, u32) = (48, 32);
 
@@ -147,15 +147,7 @@ fn cornell_box_and_caustic_sphere_agree_per_pixel() {
     check(&tracer, &path, "Cornell box: Light vs Path", crit());
     check(&bdpt, &path, "Cornell box: Bdpt vs Path", crit());
 
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../scenes/caustic-sphere.ron"
-    ))
-    .unwrap()
-    .replace(
-        "resolution: (256, 256)",
-        &format!("resolution: ({}, {})", RES.0, RES.1),
-    );
+    let text = caustic_sphere(RES);
     let caustic = scene(&text);
     // Everything light tracing sees but the emitter: the caustic included.
     let seen = r#"paths: "L.*[DG]E""#;

@@ -14,7 +14,7 @@ use lightlab_integrators::photon::trace::{
 use lightlab_integrators::{Counters, RenderOutput};
 use lightlab_materials::{Bsdf, SurfaceBsdf};
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{cornell, furnace, render, scene};
+use lightlab_tests::{caustic_sphere, cornell, furnace, render, scene};
 
 /// z-tests and t-tests in this file.
 const TESTS: u64 = 3 * 9 + 2 * 3 * 8;
@@ -334,12 +334,7 @@ fn cornell_box_agrees_with_path_tracing() {
 /// caustic part on, the floor under the glass sphere is lit and the rest of the image is black.
 #[test]
 fn caustic_map_alone_renders_only_the_caustic() {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../scenes/caustic-sphere.ron"
-    ))
-    .unwrap()
-    .replace("resolution: (256, 256)", "resolution: (32, 32)");
+    let text = caustic_sphere((32, 32));
     let sc = scene(&text);
     let out = render(
         &sc,
@@ -375,12 +370,7 @@ fn caustic_map_alone_renders_only_the_caustic() {
 fn sppm_mse_falls_as_passes_to_the_minus_two_thirds() {
     use lightlab_core::NoProgress;
     use lightlab_integrators::{Budget, IntegratorConfig};
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../scenes/caustic-sphere.ron"
-    ))
-    .unwrap()
-    .replace("resolution: (256, 256)", "resolution: (16, 16)");
+    let text = caustic_sphere((16, 16));
     let sc = scene(&text);
     let reference = render(&sc, "Bdpt(min_bounces: 2, max_bounces: 4)", 32768, 77);
     let pixels = reference.film.pixels.len();

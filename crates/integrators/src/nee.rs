@@ -4,10 +4,10 @@
 use crate::render::Counters;
 use glam::Vec2;
 use glam::Vec3;
-use lightlab_core::{Rgb, TransportMode};
+use lightlab_core::{INV_4PI, Rgb, TransportMode};
 use lightlab_geometry::{Hit, spawn_ray, spawn_ray_to, spawn_ray_to_point};
 use lightlab_materials::SurfaceBsdf;
-use lightlab_scene::{LightSample, Scene};
+use lightlab_scene::{Light, LightSample, Scene};
 
 /// An unoccluded light sample at a surface point, before any MIS weight.
 pub(crate) struct DirectSample {
@@ -52,6 +52,38 @@ pub(crate) fn sample_direct(
         bsdf_pdf: e.pdf_fwd,
         delta: ls.delta,
     })
+}
+
+/// Radiance the surface at `hit` emits toward `wo` (black unless it is an area light).
+#[inline]
+pub(crate) fn emitted(scene: &Scene, hit: &Hit, wo: Vec3) -> Rgb {
+    match scene.lights.get(hit.light as usize) {
+        Some(&Light::Area {
+            radiance,
+            two_sided,
+            ..
+        }) => Light::area_le(radiance, two_sided, hit.ng, wo),
+        _ => Rgb::BLACK,
+    }
+}
+
+/// Solid-angle density, light choice included, with which next-event estimation from `from`
+/// would have sampled the emitting point `hit` — the other strategy in the MIS weight of emission
+/// found by BSDF sampling.
+#[inline]
+pub(crate) fn light_pdf_of_hit(scene: &Scene, from: Vec3, hit: &Hit) -> f32 {
+    scene.light_pmf(hit.light)
+        * scene.shapes()[hit.shape as usize].pdf_solid_angle(from, hit.p, hit.ng)
+}
+
+/// The same for a ray that escapes to the (constant) environment lights.
+#[inline]
+pub(crate) fn environment_light_pdf(scene: &Scene) -> f32 {
+    scene
+        .environment_lights()
+        .iter()
+        .map(|&i| scene.light_pmf(i) * INV_4PI)
+        .sum()
 }
 
 /// Whether the segment from `hit` to the light sample is blocked.

@@ -12,7 +12,7 @@
 
 use crate::config::{PathConfig, Strategy};
 use crate::film::PixelSums;
-use crate::nee::sample_direct;
+use crate::nee::{emitted, environment_light_pdf, light_pdf_of_hit, sample_direct};
 use crate::paths::{Deposit, PathClass, Router};
 use crate::render::{Counters, named, render_tiles};
 use crate::roulette::survives;
@@ -24,7 +24,7 @@ use lightlab_materials::{Bsdf, SurfaceBsdf};
 use lightlab_samplers::mis::power_heuristic;
 use lightlab_samplers::warp::{square_to_uniform_hemisphere, square_to_uniform_sphere};
 use lightlab_samplers::{Sampler, SamplerVisitor};
-use lightlab_scene::{Light, Scene};
+use lightlab_scene::Scene;
 
 /// Technique numbers for the non-finite counters.
 const EMISSION: usize = 0;
@@ -91,18 +91,13 @@ impl PathTracer {
         let mut prev_delta = true;
         let mut prev_p = ray.o;
         let mut prev_bsdf_pdf = 0.0f32;
-        let shapes = scene.shapes();
         loop {
             counters.rays += 1;
             let Some(hit) = scene.intersect(&ray) else {
                 let le = scene.environment_le();
                 if depth >= cfg.min_bounces && !le.is_black() {
                     let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
-                        scene
-                            .environment_lights()
-                            .iter()
-                            .map(|&i| scene.light_pmf(i) * INV_4PI)
-                            .sum()
+                        environment_light_pdf(scene)
                     });
                     add(
                         l,
@@ -116,19 +111,11 @@ impl PathTracer {
                 break;
             };
             let wo = -ray.d.normalize();
-            if hit.light != NO_LIGHT
-                && depth >= cfg.min_bounces
-                && let Light::Area {
-                    radiance,
-                    two_sided,
-                    ..
-                } = scene.lights[hit.light as usize]
-            {
-                let le = Light::area_le(radiance, two_sided, hit.ng, wo);
+            if hit.light != NO_LIGHT && depth >= cfg.min_bounces {
+                let le = emitted(scene, &hit, wo);
                 if !le.is_black() {
                     let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
-                        scene.light_pmf(hit.light)
-                            * shapes[hit.shape as usize].pdf_solid_angle(prev_p, hit.p, hit.ng)
+                        light_pdf_of_hit(scene, prev_p, &hit)
                     });
                     add(
                         l,

@@ -9,17 +9,17 @@
 //! light sampling is the only strategy for direct light, so it has weight 1 there.
 
 use super::map::GatherPoint;
-use crate::nee::sample_direct;
+use crate::nee::{emitted, environment_light_pdf, light_pdf_of_hit, sample_direct};
 use crate::paths::{Deposit, PathClass, Router};
 use crate::render::Counters;
 use crate::roulette::survives;
 use glam::Vec2;
-use lightlab_core::{INV_4PI, Rgb, TransportMode};
+use lightlab_core::{Rgb, TransportMode};
 use lightlab_geometry::{Hit, NO_LIGHT, spawn_ray};
 use lightlab_materials::{LobeClass, SurfaceBsdf};
 use lightlab_samplers::Sampler;
 use lightlab_samplers::mis::power_heuristic;
-use lightlab_scene::{Light, Scene};
+use lightlab_scene::Scene;
 
 /// Technique number of non-finite camera-side contributions (emission and direct lighting).
 pub const CAMERA: usize = 0;
@@ -95,39 +95,24 @@ pub fn walk<S: Sampler, T: Sampler>(
     // the BSDF pdf it was reached with.
     let mut prev_nee: Option<f32> = None;
     let mut prev_p = ray.o;
-    let shapes = scene.shapes();
     loop {
         counters.rays += 1;
         let Some(hit) = scene.intersect(&ray) else {
             let le = scene.environment_le();
             if depth >= cfg.min_bounces && !le.is_black() {
                 let w = prev_nee.map_or(1.0, |bsdf_pdf| {
-                    let light_pdf = scene
-                        .environment_lights()
-                        .iter()
-                        .map(|&i| scene.light_pmf(i) * INV_4PI)
-                        .sum();
-                    power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf)
+                    power_heuristic(1.0, bsdf_pdf, 1.0, environment_light_pdf(scene))
                 });
                 add(l, router, &class, beta * le * w, counters);
             }
             return None;
         };
         let wo = -ray.d.normalize();
-        if hit.light != NO_LIGHT
-            && depth >= cfg.min_bounces
-            && let Light::Area {
-                radiance,
-                two_sided,
-                ..
-            } = scene.lights[hit.light as usize]
-        {
-            let le = Light::area_le(radiance, two_sided, hit.ng, wo);
+        if hit.light != NO_LIGHT && depth >= cfg.min_bounces {
+            let le = emitted(scene, &hit, wo);
             if !le.is_black() {
                 let w = prev_nee.map_or(1.0, |bsdf_pdf| {
-                    let light_pdf = scene.light_pmf(hit.light)
-                        * shapes[hit.shape as usize].pdf_solid_angle(prev_p, hit.p, hit.ng);
-                    power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf)
+                    power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf_of_hit(scene, prev_p, &hit))
                 });
                 add(l, router, &class, beta * le * w, counters);
             }

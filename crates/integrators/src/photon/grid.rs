@@ -80,7 +80,7 @@ impl HashGrid {
         let c = self.cell_of(p);
         let f = c.floor();
         // The 2 × 2 × 2 block of cells whose union covers the ball of radius r = half a cell.
-        let lo = f.as_ivec3() - (c - f).cmplt(Vec3::splat(0.5)).into_ivec3_mask();
+        let lo = f.as_ivec3() - IVec3::from((c - f).cmplt(Vec3::splat(0.5)));
         let mut seen = [usize::MAX; 8];
         for (n, d) in (0..8)
             .map(|i| IVec3::new(i & 1, (i >> 1) & 1, i >> 2))
@@ -100,17 +100,6 @@ impl HashGrid {
                 }
             }
         }
-    }
-}
-
-trait MaskToIVec {
-    fn into_ivec3_mask(self) -> IVec3;
-}
-
-impl MaskToIVec for glam::BVec3 {
-    #[inline]
-    fn into_ivec3_mask(self) -> IVec3 {
-        IVec3::new(self.x as i32, self.y as i32, self.z as i32)
     }
 }
 
