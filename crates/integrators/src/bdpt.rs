@@ -745,7 +745,7 @@ impl Outlier {
             sample,
             s: c.s as u32,
             t: c.t as u32,
-            class: c.class.to_heckbert(),
+            class: joined_class(light, camera, c.s, c.t).to_heckbert(),
             value: [v.r, v.g, v.b],
             unweighted: [c.unweighted.r, c.unweighted.g, c.unweighted.b],
             mis_weight: c.weight,
@@ -768,13 +768,21 @@ struct SplatSource {
     t: u16,
 }
 
+/// The class of the path strategy (s, t) joins, light first (for s = 0 the last camera vertex is
+/// the emitter, not a scattering vertex).
+fn joined_class(light: &[Vertex], camera: &[Vertex], s: usize, t: usize) -> PathClass {
+    match s {
+        0 if t >= 2 => camera[t - 2].class.reversed(),
+        0 => PathClass::EMPTY,
+        _ => light[s - 1].class.then(camera[t - 1].class.reversed()),
+    }
+}
+
 /// One strategy's contribution to one pixel sample.
 #[derive(Clone, Copy, Debug)]
 pub struct Contribution {
     pub s: usize,
     pub t: usize,
-    /// The joined path's class, light first.
-    pub class: PathClass,
     /// Its layer (see `Router::route`).
     pub layer: usize,
     /// The strategy's own estimate, before the MIS weight.
@@ -839,12 +847,12 @@ impl Bdpt {
                 {
                     continue;
                 }
-                // The joined path's class, light first (for s = 0 the last camera vertex is the
-                // emitter, not a scattering vertex).
-                let class = match s {
-                    0 if t >= 2 => camera[t - 2].class.reversed(),
-                    0 => PathClass::EMPTY,
-                    _ => light[s - 1].class.then(camera[t - 1].class.reversed()),
+                // Only a router that filters or splits needs the joined path's class (outliers
+                // rebuild it).
+                let class = if self.router.is_trivial() {
+                    PathClass::EMPTY
+                } else {
+                    joined_class(light, camera, s, t)
                 };
                 let Some(layer) = self.router.route(&class) else {
                     continue;
@@ -857,7 +865,6 @@ impl Bdpt {
                 let c = Contribution {
                     s,
                     t,
-                    class,
                     layer,
                     unweighted,
                     weight,

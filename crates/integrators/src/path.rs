@@ -99,14 +99,7 @@ impl PathTracer {
                     let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
                         environment_light_pdf(scene)
                     });
-                    add(
-                        l,
-                        router,
-                        &class.reversed(),
-                        beta * le * w,
-                        EMISSION,
-                        counters,
-                    );
+                    add(l, router, &class, beta * le * w, EMISSION, counters);
                 }
                 break;
             };
@@ -117,14 +110,7 @@ impl PathTracer {
                     let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
                         light_pdf_of_hit(scene, prev_p, &hit)
                     });
-                    add(
-                        l,
-                        router,
-                        &class.reversed(),
-                        beta * le * w,
-                        EMISSION,
-                        counters,
-                    );
+                    add(l, router, &class, beta * le * w, EMISSION, counters);
                 }
             }
             if depth >= max_bounces {
@@ -156,14 +142,7 @@ impl PathTracer {
                 } else {
                     power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
                 };
-                add(
-                    l,
-                    router,
-                    &class.reversed(),
-                    beta * d.value * w,
-                    NEXT_EVENT,
-                    counters,
-                );
+                add(l, router, &class, beta * d.value * w, NEXT_EVENT, counters);
             }
 
             // Continue the path.
@@ -243,19 +222,19 @@ fn uniform_direction(sb: &SurfaceBsdf, wo: Vec3, u: Vec2) -> Option<Step> {
     })
 }
 
-/// Adds a contribution of a path of class `class` unless it is NaN or infinite, which is counted
-/// instead (design.md).
+/// Adds a contribution of a camera path with scattering vertices `eye` (camera first) unless it is
+/// NaN or infinite, which is counted instead (design.md).
 #[inline]
 fn add(
     l: &mut Deposit,
     router: &Router,
-    class: &PathClass,
+    eye: &PathClass,
     c: Rgb,
     technique: usize,
     counters: &mut Counters,
 ) {
     if c.is_finite() {
-        l.add(router, class, c);
+        l.add_eye(router, eye, c);
     } else {
         counters.non_finite[technique] += 1;
     }

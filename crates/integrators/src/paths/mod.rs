@@ -127,6 +127,13 @@ impl Router {
             Split::Classes(r) => r.iter().position(|e| e.matches(class)).unwrap_or(r.len()),
         })
     }
+
+    /// Whether every contribution goes to the full image alone, so that hot loops can skip
+    /// building path classes.
+    #[inline]
+    pub fn is_trivial(&self) -> bool {
+        self.filter.is_none() && matches!(self.split, Split::None)
+    }
 }
 
 /// A sample's contributions: `[0]` the full image, `[1 + l]` layer l.
@@ -144,6 +151,17 @@ impl Deposit {
 
     pub fn clear(&mut self) {
         self.values.fill(lightlab_core::Rgb::BLACK);
+    }
+
+    /// Adds `c`, made by a camera path whose scattering vertices are `eye` (camera first), where
+    /// `router` sends it; the class is only turned light first when the router needs it.
+    #[inline]
+    pub fn add_eye(&mut self, router: &Router, eye: &PathClass, c: lightlab_core::Rgb) {
+        if router.is_trivial() {
+            self.values[0] += c;
+        } else {
+            self.add(router, &eye.reversed(), c);
+        }
     }
 
     /// Adds `c`, made by a path of class `class`, where `router` sends it.

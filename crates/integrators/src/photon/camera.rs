@@ -182,7 +182,7 @@ pub fn walk<S: Sampler, T: Sampler>(
 #[inline]
 fn add(l: &mut Deposit, router: &Router, eye: &PathClass, c: Rgb, counters: &mut Counters) {
     if c.is_finite() {
-        l.add(router, &eye.reversed(), c);
+        l.add_eye(router, eye, c);
     } else {
         counters.non_finite[CAMERA] += 1;
     }
