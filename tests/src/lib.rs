@@ -2,7 +2,7 @@
 //! given as RON, and generate variants of the bundled scenes.
 
 use lightlab_core::NoProgress;
-use lightlab_integrators::{Budget, IntegratorConfig, RenderOutput};
+use lightlab_integrators::{Budget, Film, IntegratorConfig, RenderOutput};
 use lightlab_scene::{Scene, parse_scene};
 use std::path::Path;
 
@@ -17,7 +17,62 @@ pub fn render(scene: &Scene, config: &str, spp: u32, seed: u64) -> RenderOutput 
     let cfg = IntegratorConfig::from_ron(config)
         .unwrap_or_else(|e| panic!("bad integrator {config}: {e}"));
     cfg.build()
-        .render(scene, &Budget { spp }, seed, &NoProgress)
+        .render(scene, &Budget::Samples(spp), seed, &NoProgress)
+}
+
+/// The image average of `film` and its standard error, which the integrator must provide (its
+/// sample passes are independent).
+pub fn image_mean(film: &Film) -> ([f64; 3], [f64; 3]) {
+    (
+        film.average(),
+        film.image_se
+            .expect("this render has no standard error of its image mean"),
+    )
+}
+
+/// The image average of `film` and its standard error from the per-pixel variances, for estimators
+/// whose pixels are independent (camera paths only: path tracing). With a stratified sampler each
+/// pixel's s²/n overestimates its variance, which makes tests built on this conservative.
+pub fn independent_pixels_mean(film: &Film) -> ([f64; 3], [f64; 3]) {
+    let n = film.pixel_count() as f64;
+    let mut var = [0.0; 3];
+    for p in &film.pixels {
+        let v = p.variance_of_mean();
+        for c in 0..3 {
+            var[c] += v[c] / (n * n);
+        }
+    }
+    (film.average(), var.map(f64::sqrt))
+}
+
+/// Image averages of `config` over `seeds` independent renders (seeds 0, 1, …): for the full
+/// image and then each layer, the mean over seeds and its standard error — for integrators with
+/// no standard error of their own (progressive photon mapping), to be tested with Student's t on
+/// `seeds − 1` degrees of freedom.
+pub fn across_seeds(
+    scene: &Scene,
+    config: &str,
+    spp: u32,
+    seeds: u64,
+) -> Vec<([f64; 3], [f64; 3])> {
+    let outs: Vec<RenderOutput> = (0..seeds).map(|s| render(scene, config, spp, s)).collect();
+    let films = |o: &RenderOutput| -> Vec<[f64; 3]> {
+        std::iter::once(o.film.average())
+            .chain(o.layers.iter().map(|(_, f)| f.average()))
+            .collect()
+    };
+    let per_seed: Vec<Vec<[f64; 3]>> = outs.iter().map(films).collect();
+    (0..per_seed[0].len())
+        .map(|k| {
+            let mut mean = [0.0; 3];
+            let mut se = [0.0; 3];
+            for c in 0..3 {
+                let xs: Vec<f64> = per_seed.iter().map(|v| v[k][c]).collect();
+                (mean[c], se[c]) = lightlab_testkit::stats::mean_and_std_error(&xs);
+            }
+            (mean, se)
+        })
+        .collect()
 }
 
 /// The furnace: camera inside a closed sphere of albedo `rho` emitting `le` from its inside.
@@ -181,7 +236,7 @@ pub fn check_furnace_every_bounce(integrator: &str, spp: u32) {
     for (config, want) in configs {
         let out = render(&sc, &config, spp, 11);
         assert_eq!(out.stats.non_finite_total(), 0);
-        let (mean, se) = out.film.average();
+        let (mean, se) = image_mean(&out.film);
         for c in 0..3 {
             let z = z(mean[c], se[c], want, 0.0);
             assert!(
@@ -208,7 +263,7 @@ pub fn check_plane_under_sky(configs: &[&str]) {
         configs.len() as u64 * 3,
     ));
     for config in configs {
-        let (mean, se) = render(&sc, config, 256, 5).film.average();
+        let (mean, se) = image_mean(&render(&sc, config, 256, 5).film);
         for c in 0..3 {
             let z = z(mean[c], se[c], want[c], 0.0);
             assert!(

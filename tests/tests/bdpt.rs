@@ -7,8 +7,8 @@
 
 use lightlab_testkit::stats::{sidak, z_critical};
 use lightlab_tests::{
-    caustic_sphere, check_furnace_every_bounce, check_plane_under_sky, cornell, regions, render,
-    scene, z,
+    caustic_sphere, check_furnace_every_bounce, check_plane_under_sky, cornell, image_mean,
+    regions, render, scene, z,
 };
 
 #[test]
@@ -193,14 +193,7 @@ fn strategy_layers_sum_to_the_image_and_each_estimates_its_paths() {
             );
         }
     }
-    let layer = |name: &str| {
-        out.layers
-            .iter()
-            .find(|(n, _)| n == name)
-            .unwrap()
-            .1
-            .average()
-    };
+    let layer = |name: &str| image_mean(&out.layers.iter().find(|(n, _)| n == name).unwrap().1);
     let crit = z_critical(sidak(1e-3, 6));
     let (nee, nee_se) = layer("s1t2.unweighted");
     for other in ["s0t3.unweighted", "s2t1.unweighted"] {

@@ -6,7 +6,7 @@
 //! whole file fails by chance with probability ≤ 1e-3; seeds are fixed, so a pass is reproducible.
 
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{furnace, furnace_box, render, scene};
+use lightlab_tests::{furnace, furnace_box, image_mean, render, scene};
 
 /// Number of z-tests in this file (each channel of each render counts once).
 const TESTS: u64 = 3 * (10 + 4 + 9 + 4);
@@ -29,7 +29,7 @@ fn check(what: &str, text: &str, config: &str, spp: u32, want: f64) {
         0,
         "{what}: non-finite samples"
     );
-    let (mean, se) = out.film.average();
+    let (mean, se) = image_mean(&out.film);
     for c in 0..3 {
         let z = (mean[c] - want) / se[c].max(1e-12 * want.max(1e-30));
         assert!(

@@ -143,15 +143,17 @@ fn point_light_irradiance_estimate_converges_with_kernel_bias() {
             for &(x, z) in &points {
                 let g = gather_at(x, z);
                 let mut l = 0.0f64;
-                let radius_sq =
-                    map.estimate(&g, Search::Radius { radius_sq: r * r }, kernel, |_, c| {
-                        l += c.r as f64
-                    });
+                let radius_sq = map.estimate(
+                    &g,
+                    Search::Radius { radius_sq: r * r },
+                    kernel,
+                    |_, _, c| l += c.r as f64,
+                );
                 // L = Σ K f Φ / (π r²) with f = 1/π, so E = π L = Σ K Φ / r².
                 let e = std::f64::consts::PI * l;
                 // Poisson noise of the sum: Σ (K f Φ)² estimated from the same photons.
                 let mut sq = 0.0f64;
-                map.within(g.p, radius_sq, |ph, d2| {
+                map.within(g.p, radius_sq, |ph, _, d2| {
                     sq += ((kernel.weight(d2 / radius_sq) * ph.power.r) as f64).powi(2);
                 });
                 let sigma = sq.sqrt() / radius_sq as f64;
@@ -184,7 +186,7 @@ fn across_seeds(text: &str, config: &str, spp: u32, seeds: u64) -> ([f64; 3], [f
         .map(|s| {
             let out: RenderOutput = render(&sc, config, spp, 100 + s);
             assert_eq!(out.stats.non_finite_total(), 0, "{config}");
-            out.film.average().0
+            out.film.average()
         })
         .collect();
     let n = seeds as f64;
@@ -391,7 +393,7 @@ fn sppm_mse_falls_as_passes_to_the_minus_two_thirds() {
         for seed in 0..seeds {
             config.render_passes(
                 &sc,
-                &Budget { spp: 256 },
+                &Budget::Samples(256),
                 500 + seed,
                 &NoProgress,
                 &mut |i, film| {

@@ -8,7 +8,7 @@
 //! comparisons), fixed seeds.
 
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{cornell, regions, render, scene};
+use lightlab_tests::{cornell, independent_pixels_mean, regions, render, scene};
 
 #[test]
 fn all_samplers_agree_on_the_cornell_box() {
@@ -54,7 +54,7 @@ fn all_samplers_hit_the_furnace_value() {
             64,
             3,
         );
-        let (mean, se) = out.film.average();
+        let (mean, se) = independent_pixels_mean(&out.film);
         for c in 0..3 {
             // Uniform hemisphere sampling keeps some variance (cos θ varies); the floor covers f32
             // rounding (relative 1e-6) should a sampler make the estimate nearly exact.

@@ -164,7 +164,7 @@ pub fn convergence(args: ConvergenceArgs) -> Result<(), String> {
     write_atomic(&dir.join("convergence.csv"), csv.as_bytes()).map_err(io)?;
     let json = serde_json::json!({
         "max_spp": study.max_spp, "seeds": study.seeds, "fit_from": study.fit_from,
-        "fit": "least squares of ln MSE on ln spp over spp ≥ fit_from; slope_ci95 is the half-width of the 95 % interval",
+        "fit": "weighted least squares of ln MSE on ln spp over spp ≥ fit_from, each point weighted by its own standard error (disjoint seeds per sample count); slope_ci95 is the half-width of the 95 % interval, widened by sqrt(chi2/dof) when that exceeds 1",
         "rates": rates,
     });
     write_atomic(

@@ -18,9 +18,15 @@ pub struct RenderArgs {
     /// Integrator and its settings as RON, e.g. 'Path(max_bounces: 8, strategy: Mis)'.
     #[arg(long, short, default_value = "Path()")]
     integrator: String,
-    /// Samples per pixel (≥ 1).
-    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Samples per pixel (≥ 1): camera paths per pixel, light paths per pixel for light tracing,
+    /// passes for progressive photon mapping.
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..), conflicts_with = "seconds")]
     spp: u32,
+    /// Render for this many wall-clock seconds instead of a sample count: samples continue until
+    /// the time is spent, so the image is the one `--spp` would give at the count reached (see
+    /// the README, "Time budgets").
+    #[arg(long, allow_negative_numbers = true)]
+    seconds: Option<f64>,
     /// Seed of the random numbers: the same seed gives the same image, bit for bit, on any number of
     /// threads.
     #[arg(long, default_value_t = 0)]
@@ -53,6 +59,11 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     let config = IntegratorConfig::from_ron(&args.integrator)
         .map_err(|e| format!("--integrator '{}': {e}", args.integrator))?
         .with_paths_and_layers(args.paths.clone(), layers)?;
+    let budget = match args.seconds {
+        Some(s) => Budget::Seconds(s),
+        None => Budget::Samples(args.spp),
+    };
+    budget.check().map_err(|e| format!("--seconds: {e}"))?;
     let scene = lightlab_scene::load_scene(&args.scene).map_err(|e| e.to_string())?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(t) = args.threads {
@@ -62,9 +73,11 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let integrator = config.build();
+    integrator
+        .check_scene(&scene)
+        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     let bar = Bar::new("render");
-    let out =
-        pool.install(|| integrator.render(&scene, &Budget { spp: args.spp }, args.seed, &bar));
+    let out = pool.install(|| integrator.render(&scene, &budget, args.seed, &bar));
     bar.0.finish_and_clear();
 
     let (w, h) = (out.film.width, out.film.height);
@@ -88,7 +101,6 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     .map_err(|e| format!("{}: {e}", json_path.display()))?;
 
     let s = &out.stats;
-    let (mean, se) = out.film.average();
     println!(
         "{}: {}×{} at {} spp in {:.2} s on {} threads — {:.2} M rays/s, {:.2} M samples/s",
         s.integrator,
@@ -101,9 +113,15 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         s.samples_per_second * 1e-6
     );
     println!(
-        "image mean radiance (R, G, B) = ({:.6}, {:.6}, {:.6}) ± ({:.2e}, {:.2e}, {:.2e}) (1 std. error)",
-        mean[0], mean[1], mean[2], se[0], se[1], se[2]
+        "image mean radiance (R, G, B) = {}",
+        image_mean(out.film.average(), out.film.image_se, s.spp)
     );
+    if !s.pixel_variance.is_estimate() {
+        println!(
+            "  (the variance layer is not the variance of the pixel mean: {:?})",
+            s.pixel_variance
+        );
+    }
     if s.non_finite_total() > 0 {
         eprintln!(
             "warning: {} non-finite contributions were left out of the image: {:?}",
@@ -117,7 +135,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
             "scene": args.scene.display().to_string(),
             "integrator": config.to_ron(),
             "seed": args.seed,
-            "spp": args.spp,
+            "spp": out.stats.spp,
             "replay": "lightlab replay SCENE --integrator '…' --seed SEED --spp SPP --pixel X,Y --sample I",
             "outliers": out.outliers,
         });
@@ -136,10 +154,9 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         );
     }
     for (name, film) in &out.layers {
-        let (m, e) = film.average();
         println!(
-            "  layer {name:>12}: mean ({:.6}, {:.6}, {:.6}) ± ({:.2e}, {:.2e}, {:.2e})",
-            m[0], m[1], m[2], e[0], e[1], e[2]
+            "  layer {name:>12}: {}",
+            image_mean(film.average(), film.image_se, s.spp)
         );
     }
     println!(
@@ -149,4 +166,18 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         json_path.display()
     );
     Ok(())
+}
+
+/// The image average with its standard error where one exists, saying what the error is.
+fn image_mean(mean: [f64; 3], se: Option<[f64; 3]>, spp: u32) -> String {
+    let m = format!("({:.6}, {:.6}, {:.6})", mean[0], mean[1], mean[2]);
+    match se {
+        Some(e) => format!(
+            "{m} ± ({:.2e}, {:.2e}, {:.2e}) (1 standard error, from the spread of {spp} independent sample passes)",
+            e[0], e[1], e[2]
+        ),
+        None => format!(
+            "{m} (no standard error: this integrator's or sampler's passes are not independent; measure it across seeds)"
+        ),
+    }
 }

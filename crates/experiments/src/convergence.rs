@@ -3,10 +3,15 @@
 //! integrator), for every sampler at 1…N samples over independent seeds; the MSE per sample count
 //! and the fitted log–log slope with its 95 % confidence interval.
 //!
+//! Every sample count gets its own seeds (disjoint from every other count's), so the points of a
+//! curve have independent errors, and the fit weights each point by its own standard error
+//! ([`fit_power_law`]); `coverage` checks that the resulting interval holds a known rate as often
+//! as it claims.
+//!
 //! Expected rates (Mitchell 1996; Owen 1997): independent samples −1; jittered (stratified) −2 on
 //! smooth integrands and −1.5 on integrands with edges; scrambled Sobol' at least as fast as jittered.
 
-use crate::metrics::{Fit, fit_line};
+use crate::metrics::{Fit, fit_power_law};
 use crate::plot::{LinePlot, Series};
 use lightlab_samplers::{Sampler, SamplerConfig, SamplerVisitor};
 use serde::Serialize;
@@ -95,7 +100,7 @@ pub struct Rate {
 pub struct Study {
     /// Largest sample count; counts are 1, 2, 4, … up to it.
     pub max_spp: u32,
-    /// Independent replicates (seeds) per sample count.
+    /// Independent replicates (seeds) per sample count; each count has its own.
     pub seeds: u32,
     /// Smallest sample count used in the fit (the rate is asymptotic).
     pub fit_from: u32,
@@ -122,7 +127,6 @@ impl SamplerVisitor for Estimate<'_> {
 
 /// Runs the study: every function × sampler × sample count, replicates in parallel.
 pub fn run(study: &Study, progress: &dyn lightlab_core::Progress) -> (Vec<Point>, Vec<Rate>) {
-    use rayon::prelude::*;
     let counts: Vec<u32> = (0..32)
         .map(|k| 1u32 << k)
         .take_while(|&n| n <= study.max_spp)
@@ -131,32 +135,24 @@ pub fn run(study: &Study, progress: &dyn lightlab_core::Progress) -> (Vec<Point>
     let mut points = Vec::new();
     let mut rates = Vec::new();
     for f in &FUNCTIONS {
-        let exact = (f.integral)();
         for sampler in SamplerConfig::ALL {
             let mut pts = Vec::new();
-            for &spp in &counts {
-                let errors: Vec<f64> = (0..study.seeds as u64)
-                    .into_par_iter()
-                    .map(|seed| (sampler.dispatch(spp, Estimate { f, spp, seed }) - exact).powi(2))
-                    .collect();
-                let n = errors.len() as f64;
-                let mse = errors.iter().sum::<f64>() / n;
-                let var =
-                    errors.iter().map(|e| (e - mse).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+            for (c, &spp) in counts.iter().enumerate() {
+                let (mse, mse_se) = mse_over_seeds(f, sampler, spp, study.seeds, c as u64);
                 pts.push(Point {
                     function: f.name.into(),
                     sampler: sampler.name().into(),
                     spp,
                     mse,
-                    mse_se: (var / n).sqrt(),
+                    mse_se,
                 });
             }
-            let fit_pts: Vec<(f64, f64)> = pts
+            let fit_pts: Vec<(f64, f64, f64)> = pts
                 .iter()
-                .filter(|p| p.spp >= study.fit_from && p.mse > 0.0)
-                .map(|p| ((p.spp as f64).ln(), p.mse.ln()))
+                .filter(|p| p.spp >= study.fit_from)
+                .map(|p| (p.spp as f64, p.mse, p.mse_se))
                 .collect();
-            if let Some(fit) = fit_line(&fit_pts) {
+            if let Some(fit) = fit_power_law(&fit_pts, false) {
                 rates.push(Rate {
                     function: f.name.into(),
                     sampler: sampler.name().into(),
@@ -168,6 +164,61 @@ pub fn run(study: &Study, progress: &dyn lightlab_core::Progress) -> (Vec<Point>
         }
     }
     (points, rates)
+}
+
+/// MSE of `sampler`'s estimate of `f` at `spp` samples over `seeds` replicates, and its standard
+/// error. Replicate s of curve point `point` uses seed (point, s): no two points share a seed.
+pub fn mse_over_seeds(
+    f: &TestFunction,
+    sampler: SamplerConfig,
+    spp: u32,
+    seeds: u32,
+    point: u64,
+) -> (f64, f64) {
+    use rayon::prelude::*;
+    let exact = (f.integral)();
+    let errors: Vec<f64> = (0..seeds as u64)
+        .into_par_iter()
+        .map(|s| {
+            let seed = point << 32 | s;
+            (sampler.dispatch(spp, Estimate { f, spp, seed }) - exact).powi(2)
+        })
+        .collect();
+    let n = errors.len() as f64;
+    let mse = errors.iter().sum::<f64>() / n;
+    let var = errors.iter().map(|e| (e - mse).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    (mse, (var / n).sqrt())
+}
+
+/// Coverage of the fitted slope's 95 % interval: `studies` repetitions of a whole convergence
+/// study of `f` with `sampler` (sample counts `counts`, `seeds` each, disjoint seeds throughout),
+/// returning the fraction whose interval contains `true_slope`.
+pub fn coverage(
+    f: &TestFunction,
+    sampler: SamplerConfig,
+    counts: &[u32],
+    seeds: u32,
+    studies: u32,
+    true_slope: f64,
+) -> f64 {
+    let mut covered = 0;
+    for study in 0..studies as u64 {
+        let pts: Vec<(f64, f64, f64)> = counts
+            .iter()
+            .enumerate()
+            .map(|(c, &spp)| {
+                let point = study * counts.len() as u64 + c as u64;
+                let (mse, se) = mse_over_seeds(f, sampler, spp, seeds, point);
+                (spp as f64, mse, se)
+            })
+            .collect();
+        if let Some(fit) = fit_power_law(&pts, false)
+            && (fit.slope - true_slope).abs() <= fit.slope_ci95
+        {
+            covered += 1;
+        }
+    }
+    covered as f64 / studies as f64
 }
 
 /// The MSE-against-samples plot of one function, one series per sampler with its fitted slope.

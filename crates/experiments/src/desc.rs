@@ -56,9 +56,21 @@ pub enum ReferenceDesc {
     /// samples per pixel and cached under `results/references/` by a hash of the scene text,
     /// resolution, these settings and the Lightlab version.
     Render { integrator: String, spp: u32 },
-    /// Loaded from an EXR with layers `radiance` and (optional) `variance`, relative to the
-    /// experiment file. Its size must match the runs'.
-    Exr { path: PathBuf },
+    /// Loaded from an EXR file another program (or Lightlab) wrote, relative to the experiment
+    /// file; its size must match the runs'. The image is the layer named `layer` if given,
+    /// otherwise a layer `radiance` (Lightlab's own files), otherwise the unnamed R, G, B channels
+    /// of a single-part file (Mitsuba 3, pbrt-v4), otherwise its only RGB layer; channels may be
+    /// plain `R, G, B` or prefixed, `radiance.R`. Its variance of the pixel mean is the layer
+    /// `variance` (or pbrt's `Variance`) of the same file, or the image of the separate file
+    /// `variance`; without one nothing is subtracted from the errors. A variance given this way
+    /// is trusted to be the variance of the mean of independent samples.
+    Exr {
+        path: PathBuf,
+        #[serde(default)]
+        layer: Option<String>,
+        #[serde(default)]
+        variance: Option<PathBuf>,
+    },
 }
 
 /// A method: an integrator and its settings.
@@ -119,9 +131,19 @@ pub enum Axis {
 pub enum BudgetDesc {
     /// Samples per pixel.
     Samples(u32),
-    /// Wall-clock seconds: one-sample-per-pixel passes are rendered and averaged until the time is
-    /// used up (at least one pass), for equal-time comparisons.
+    /// Wall-clock seconds, for equal-time comparisons: the render continues its sample sequence
+    /// until the time is spent, so it is the same estimator as the sample budget it reaches (see
+    /// `lightlab_integrators::Integrator::render`; stratified samplers calibrate with a pilot).
     Seconds(f64),
+}
+
+impl From<BudgetDesc> for lightlab_integrators::Budget {
+    fn from(b: BudgetDesc) -> Self {
+        match b {
+            BudgetDesc::Samples(n) => lightlab_integrators::Budget::Samples(n),
+            BudgetDesc::Seconds(s) => lightlab_integrators::Budget::Seconds(s),
+        }
+    }
 }
 
 impl Default for BudgetDesc {

@@ -105,7 +105,12 @@ pub fn write_exr(
     })
 }
 
-/// Reads every layer of an OpenEXR file that has R, G and B channels: (width, height, layers).
+/// Reads every RGB layer of an OpenEXR file: (width, height, layers). A layer is a set of channels
+/// `R`, `G`, `B` with a common prefix (`radiance.R`, or no prefix) in one part; its name is the
+/// part's name and the prefix joined by a dot, either alone when the other is empty — so
+/// Lightlab's multi-part files, single-part files with plain `R, G, B` (Mitsuba 3, pbrt-v4; the
+/// unnamed layer `""`) and single-part multi-layer files all read. Other channels (`A`, depth) are
+/// ignored.
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<RgbLayer>), ImageError> {
     use exr::prelude::*;
     let err = |message: String| ImageError::Exr {
@@ -123,31 +128,48 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<RgbLayer>), ImageError> {
     let mut size = None;
     let mut out = Vec::new();
     for layer in &image.layer_data {
-        let find = |n: &str| {
-            layer
-                .channel_data
-                .list
-                .iter()
-                .find(|c| c.name.eq_case_insensitive(n))
-        };
-        let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) else {
-            continue;
-        };
-        let (r, g, b) = (
-            r.sample_data.values_as_f32().collect::<Vec<_>>(),
-            g.sample_data.values_as_f32().collect::<Vec<_>>(),
-            b.sample_data.values_as_f32().collect::<Vec<_>>(),
-        );
-        let name = layer
+        let part = layer
             .attributes
             .layer_name
             .as_ref()
             .map_or_else(String::new, |n| n.to_string());
-        size = Some((layer.size.0 as u32, layer.size.1 as u32));
-        out.push(RgbLayer {
-            name,
-            pixels: (0..r.len()).map(|i| [r[i], g[i], b[i]]).collect(),
-        });
+        let channels = &layer.channel_data.list;
+        let split = |name: &str| match name.rfind('.') {
+            Some(i) => (name[..i].to_string(), name[i + 1..].to_string()),
+            None => (String::new(), name.to_string()),
+        };
+        let mut prefixes: Vec<String> = channels
+            .iter()
+            .map(|c| split(&c.name.to_string()).0)
+            .collect();
+        prefixes.sort();
+        prefixes.dedup();
+        for prefix in prefixes {
+            let find = |n: &str| {
+                channels.iter().find(|c| {
+                    let (p, base) = split(&c.name.to_string());
+                    p == prefix && base.eq_ignore_ascii_case(n)
+                })
+            };
+            let (Some(r), Some(g), Some(b)) = (find("R"), find("G"), find("B")) else {
+                continue;
+            };
+            let (r, g, b) = (
+                r.sample_data.values_as_f32().collect::<Vec<_>>(),
+                g.sample_data.values_as_f32().collect::<Vec<_>>(),
+                b.sample_data.values_as_f32().collect::<Vec<_>>(),
+            );
+            let name = match (part.is_empty(), prefix.is_empty()) {
+                (_, true) => part.clone(),
+                (true, false) => prefix.clone(),
+                (false, false) => format!("{part}.{prefix}"),
+            };
+            size = Some((layer.size.0 as u32, layer.size.1 as u32));
+            out.push(RgbLayer {
+                name,
+                pixels: (0..r.len()).map(|i| [r[i], g[i], b[i]]).collect(),
+            });
+        }
     }
     let (w, h) = size.ok_or_else(|| err("no layer with R, G and B channels".into()))?;
     Ok((w, h, out))

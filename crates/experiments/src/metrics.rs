@@ -5,6 +5,10 @@
 //! the mean (from its variance layer), E[(x − r̂)²] = E[(x − r)²] + v_r for an independent
 //! reference, so v_r is subtracted from the squared errors: the reference's noise is not charged to
 //! the method (it is reported, and a warning is due when it is not small next to the error).
+//! That holds only where v_r is an unbiased estimate of the variance of the reference's mean — a
+//! reference of independent samples. A reference rendered with a stratified or low-discrepancy
+//! sampler, or by progressive photon mapping, has no such estimate; its image then carries no
+//! variance and nothing is subtracted (the runner says so).
 
 use serde::{Deserialize, Serialize};
 
@@ -12,13 +16,22 @@ use serde::{Deserialize, Serialize};
 /// value is part of the metric's definition and printed with the results).
 pub const REL_EPSILON: f64 = 1e-2;
 
-/// An image with its per-pixel variance of the mean, row-major RGB.
+/// An image with its per-pixel variance of the mean, row-major RGB; `None` where the image has no
+/// valid estimate of it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
     pub width: u32,
     pub height: u32,
     pub mean: Vec<[f32; 3]>,
-    pub variance: Vec<[f32; 3]>,
+    pub variance: Option<Vec<[f32; 3]>>,
+}
+
+impl Image {
+    /// The reference variance of pixel `i` (zero without a variance).
+    #[inline]
+    fn var(&self, i: usize) -> [f32; 3] {
+        self.variance.as_ref().map_or([0.0; 3], |v| v[i])
+    }
 }
 
 /// Errors of one image against the reference, averaged over pixels and channels.
@@ -30,7 +43,8 @@ pub struct Errors {
     pub rel_mse: f64,
     /// Mean absolute error (not corrected for the reference's noise).
     pub mae: f64,
-    /// Mean of the reference's variance of the mean: the part of the raw MSE due to the reference.
+    /// Mean of the reference's variance of the mean: the part of the raw MSE due to the reference
+    /// (0 when the reference has no valid variance; then nothing was subtracted).
     pub reference_variance: f64,
 }
 
@@ -40,7 +54,8 @@ pub fn errors(x: &[[f32; 3]], reference: &Image) -> Option<Errors> {
         return None;
     }
     let mut e = Errors::default();
-    for ((p, r), v) in x.iter().zip(&reference.mean).zip(&reference.variance) {
+    for (i, (p, r)) in x.iter().zip(&reference.mean).enumerate() {
+        let v = reference.var(i);
         for c in 0..3 {
             let (p, r, v) = (p[c] as f64, r[c] as f64, v[c] as f64);
             let d2 = (p - r) * (p - r);
@@ -85,7 +100,7 @@ pub fn bias_variance(trials: &[&[[f32; 3]]], reference: &Image) -> Option<BiasVa
                 .sum::<f64>()
                 / (t - 1) as f64;
             let r = reference.mean[i][c] as f64;
-            bias2 += (mean - r).powi(2) - s2 / t as f64 - reference.variance[i][c] as f64;
+            bias2 += (mean - r).powi(2) - s2 / t as f64 - reference.var(i)[c] as f64;
             variance += s2;
         }
     }
@@ -96,53 +111,158 @@ pub fn bias_variance(trials: &[&[[f32; 3]]], reference: &Image) -> Option<BiasVa
     })
 }
 
-/// Least-squares line y = a + b·x with the 95 % confidence interval of the slope (Student t with
-/// n − 2 degrees of freedom). Used on (log spp, log MSE) for convergence rates.
+/// Efficiency of a method at one setting, 1 / (error × time) (Veach 1997, §2.5.2: the inverse of
+/// the variance × time product), from T independent trials, each with its error (MSE or relMSE)
+/// and time.
+///
+/// It is the ratio of the means, 1 / (ē · t̄), not the mean of the per-trial 1 / (eᵢ tᵢ): by
+/// Jensen's inequality that mean overstates efficiency, and it is undefined once an eᵢ, with the
+/// reference's noise subtracted, is zero or negative. The standard error is the delta method's,
+/// with the covariance of error and time: Var ≈ E² [Var(ē)/ē² + Var(t̄)/t̄² + 2 Cov(ē, t̄)/(ē t̄)].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Efficiency {
+    /// 1 / (ē · t̄); `None` when ē ≤ 0.
+    pub value: Option<f64>,
+    pub se: Option<f64>,
+    /// Whether ē is significantly above zero (one-sided Student t at 5 %, T − 1 degrees of
+    /// freedom). When it is not, the error is within the reference's noise and the efficiency
+    /// is a lower bound of little meaning.
+    pub error_significant: bool,
+}
+
+pub fn efficiency(errors: &[f64], seconds: &[f64]) -> Efficiency {
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    let t = errors.len().min(seconds.len());
+    let n = t as f64;
+    let mean = |x: &[f64]| x[..t].iter().sum::<f64>() / n;
+    let (e, s) = (mean(errors), mean(seconds));
+    let value = (e > 0.0 && s > 0.0).then(|| 1.0 / (e * s));
+    if t < 2 {
+        return Efficiency {
+            value,
+            se: None,
+            error_significant: false,
+        };
+    }
+    let cov = |a: &[f64], ma: f64, b: &[f64], mb: f64| {
+        (0..t).map(|i| (a[i] - ma) * (b[i] - mb)).sum::<f64>() / (n - 1.0) / n
+    };
+    let (var_e, var_s, cov_es) = (
+        cov(errors, e, errors, e),
+        cov(seconds, s, seconds, s),
+        cov(errors, e, seconds, s),
+    );
+    let se = value.map(|v| {
+        let rel = var_e / (e * e) + var_s / (s * s) + 2.0 * cov_es / (e * s);
+        v * rel.max(0.0).sqrt()
+    });
+    let critical = StudentsT::new(0.0, 1.0, n - 1.0)
+        .map(|d| d.inverse_cdf(0.95))
+        .unwrap_or(f64::INFINITY);
+    Efficiency {
+        value,
+        se,
+        error_significant: e > critical * var_e.sqrt(),
+    }
+}
+
+/// A power law y = e^a · x^b fitted to points (x, y ± se) on log–log axes: the convergence rate of
+/// an error against samples or time.
+///
+/// Method: weighted least squares of ln y on ln x, with each point's standard error in log space
+/// σᵢ = seᵢ/yᵢ (the delta method) — or, `pooled`, one σ² for all, the mean of the σᵢ² (for few
+/// trials per point, whose individual standard errors are too noisy to weight by). The slope's
+/// standard error is √(1/Σwᵢ(ln xᵢ − x̄)²), multiplied by √(χ²/(n − 2)) when that exceeds one (the
+/// points scatter more than their errors allow: the law does not hold exactly over the range;
+/// Birge 1932, as the Particle Data Group scales), and the interval is ±1.96 of it. Without
+/// standard errors (one trial) it is ordinary least squares with a Student-t interval on n − 2
+/// degrees of freedom. Points need independent errors: disjoint seeds at every x.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Fit {
     pub intercept: f64,
     pub slope: f64,
-    /// Half-width of the slope's 95 % confidence interval (infinite with only two points).
+    /// Half-width of the slope's 95 % confidence interval (infinite with only two points and no
+    /// standard errors).
     pub slope_ci95: f64,
+    /// Points used.
     pub points: usize,
+    /// χ² per degree of freedom of the weighted fit (`None` without standard errors or with two
+    /// points); well above 1 means the data are not one power law.
+    pub chi2_per_dof: Option<f64>,
+    /// x of the points left out because their y is not positive (an error at or below the
+    /// reference's noise, after subtracting it), so that no point vanishes silently.
+    pub excluded: Vec<f64>,
 }
 
-pub fn fit_line(points: &[(f64, f64)]) -> Option<Fit> {
+pub fn fit_power_law(points: &[(f64, f64, f64)], pooled: bool) -> Option<Fit> {
     use statrs::distribution::{ContinuousCDF, StudentsT};
-    let pts: Vec<_> = points
-        .iter()
-        .copied()
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .collect();
+    let mut excluded = Vec::new();
+    let mut pts = Vec::new();
+    for &(x, y, se) in points {
+        if !(x > 0.0 && x.is_finite()) {
+            continue;
+        }
+        if !(y > 0.0 && y.is_finite()) {
+            excluded.push(x);
+            continue;
+        }
+        pts.push((x.ln(), y.ln(), se / y));
+    }
     let n = pts.len();
     if n < 2 {
         return None;
     }
     let nf = n as f64;
-    let mx = pts.iter().map(|p| p.0).sum::<f64>() / nf;
-    let my = pts.iter().map(|p| p.1).sum::<f64>() / nf;
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let weighted = pts.iter().all(|p| p.2 > 0.0 && p.2.is_finite());
+    let pooled_var = pts.iter().map(|p| p.2 * p.2).sum::<f64>() / nf;
+    let w: Vec<f64> = pts
+        .iter()
+        .map(|p| match (weighted, pooled) {
+            (false, _) => 1.0,
+            (true, true) => 1.0 / pooled_var,
+            (true, false) => 1.0 / (p.2 * p.2),
+        })
+        .collect();
+    let sw: f64 = w.iter().sum();
+    let mx = pts.iter().zip(&w).map(|(p, w)| w * p.0).sum::<f64>() / sw;
+    let my = pts.iter().zip(&w).map(|(p, w)| w * p.1).sum::<f64>() / sw;
+    let sxx: f64 = pts
+        .iter()
+        .zip(&w)
+        .map(|(p, w)| w * (p.0 - mx).powi(2))
+        .sum();
     if !(sxx > 0.0) {
         return None;
     }
-    let slope = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx;
+    let slope = pts
+        .iter()
+        .zip(&w)
+        .map(|(p, w)| w * (p.0 - mx) * (p.1 - my))
+        .sum::<f64>()
+        / sxx;
     let intercept = my - slope * mx;
-    let slope_ci95 = if n > 2 {
-        let rss: f64 = pts
-            .iter()
-            .map(|p| (p.1 - intercept - slope * p.0).powi(2))
-            .sum();
-        let se = (rss / (nf - 2.0) / sxx).sqrt();
+    let chi2: f64 = pts
+        .iter()
+        .zip(&w)
+        .map(|(p, w)| w * (p.1 - intercept - slope * p.0).powi(2))
+        .sum();
+    let (slope_ci95, chi2_per_dof) = if weighted {
+        let per_dof = (n > 2).then(|| chi2 / (nf - 2.0));
+        let scale = per_dof.map_or(1.0, |c| c.max(1.0).sqrt());
+        (1.959_963_985 * scale / sxx.sqrt(), per_dof)
+    } else if n > 2 {
         let t = StudentsT::new(0.0, 1.0, nf - 2.0).ok()?.inverse_cdf(0.975);
-        t * se
+        (t * (chi2 / (nf - 2.0) / sxx).sqrt(), None)
     } else {
-        f64::INFINITY
+        (f64::INFINITY, None)
     };
     Some(Fit {
         intercept,
         slope,
         slope_ci95,
         points: n,
+        chi2_per_dof,
+        excluded,
     })
 }
 
@@ -156,7 +276,7 @@ mod tests {
             width: n as u32,
             height: 1,
             mean,
-            variance: vec![[variance; 3]; n],
+            variance: Some(vec![[variance; 3]; n]),
         }
     }
 
@@ -218,25 +338,90 @@ mod tests {
 
     #[test]
     fn fit_recovers_slope_and_interval_covers_it() {
-        let pts: Vec<(f64, f64)> = (0..10)
+        // y = 7.4 x^−1 with small deterministic scatter, no standard errors: OLS with a t interval.
+        let pts: Vec<(f64, f64, f64)> = (0..10)
             .map(|i| {
+                let x = (i as f64).exp();
                 (
-                    i as f64,
-                    2.0 - 1.0 * i as f64 + 0.01 * ((i * 7 % 5) as f64 - 2.0),
+                    x,
+                    (2.0 - i as f64 + 0.01 * ((i * 7 % 5) as f64 - 2.0)).exp(),
+                    0.0,
                 )
             })
             .collect();
-        let f = fit_line(&pts).unwrap();
+        let f = fit_power_law(&pts, false).unwrap();
         assert!(
             (f.slope + 1.0).abs() < f.slope_ci95 && f.slope_ci95 < 0.01,
             "{f:?}"
         );
-        assert!(fit_line(&[(1.0, 1.0)]).is_none());
+        assert!(fit_power_law(&[(1.0, 1.0, 0.0)], false).is_none());
         assert!(
-            fit_line(&[(1.0, 1.0), (2.0, 3.0)])
+            fit_power_law(&[(1.0, 1.0, 0.0), (2.0, 3.0, 0.0)], false)
                 .unwrap()
                 .slope_ci95
                 .is_infinite()
+        );
+        // Non-positive points are left out and listed.
+        let mut with_zero = pts.clone();
+        with_zero.push((1e5, -1e-9, 1e-9));
+        with_zero.push((2e5, 0.0, 1e-9));
+        let f = fit_power_law(&with_zero, false).unwrap();
+        assert_eq!(
+            (f.points, f.excluded.clone()),
+            (10, vec![1e5, 2e5]),
+            "{f:?}"
+        );
+    }
+
+    /// The efficiency is the ratio of means with a delta-method error, not the mean of ratios.
+    #[test]
+    fn efficiency_is_a_ratio_of_means() {
+        let (mse, time) = ([1.0, 3.0], [2.0, 2.0]);
+        let e = efficiency(&mse, &time);
+        // 1 / (2 · 2), where the mean of 1/(MSE·t) would be (1/2 + 1/6)/2 = 1/3.
+        assert!((e.value.unwrap() - 0.25).abs() < 1e-12, "{e:?}");
+        // Var(ē) = s²/T = 2/2 = 1; relative SE = 1/2, so SE = 0.125.
+        assert!((e.se.unwrap() - 0.125).abs() < 1e-12, "{e:?}");
+        assert!(!e.error_significant, "t₀.₉₅(1) = 6.3 > 2/1");
+        // A mean error at or below zero has no efficiency, and is not significant.
+        let e = efficiency(&[1e-3, -2e-3, 5e-4], &[1.0, 1.1, 0.9]);
+        assert!(
+            e.value.is_none() && e.se.is_none() && !e.error_significant,
+            "{e:?}"
+        );
+        let e = efficiency(&[1.0, 1.1, 0.9, 1.05], &[1.0; 4]);
+        assert!(e.error_significant && (e.value.unwrap() - 1.0 / 1.0125).abs() < 1e-12);
+    }
+
+    /// Weighted: exact points with 5 % standard errors give the exact slope, an interval of
+    /// 1.96·0.05/√Sxx (χ² = 0 does not shrink it), and χ²/dof 0; a point far off its error
+    /// inflates the interval by √(χ²/dof).
+    #[test]
+    fn weighted_fit_uses_standard_errors() {
+        let pts: Vec<(f64, f64, f64)> = (0..6)
+            .map(|i| {
+                let x = 2f64.powi(i);
+                (x, 3.0 / x, 0.05 * 3.0 / x)
+            })
+            .collect();
+        let f = fit_power_law(&pts, false).unwrap();
+        let ln2 = 2f64.ln();
+        let sxx: f64 = (0..6)
+            .map(|i| ((i as f64 - 2.5) * ln2).powi(2))
+            .sum::<f64>()
+            / 0.0025;
+        assert!((f.slope + 1.0).abs() < 1e-12, "{f:?}");
+        assert!(
+            (f.slope_ci95 - 1.96 / sxx.sqrt()).abs() < 1e-3 * f.slope_ci95,
+            "{f:?}"
+        );
+        assert!(f.chi2_per_dof.unwrap() < 1e-20);
+        let mut off = pts.clone();
+        off[5].1 *= 2.0;
+        let g = fit_power_law(&off, false).unwrap();
+        assert!(
+            g.chi2_per_dof.unwrap() > 10.0 && g.slope_ci95 > 3.0 * f.slope_ci95,
+            "{g:?}"
         );
     }
 }

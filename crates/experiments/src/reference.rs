@@ -1,19 +1,25 @@
 //! Reference images: rendered once and cached under `results/references/`, keyed by a hash of what
-//! produced them (scene text, image size, integrator settings, sample count, Lightlab version), or
-//! loaded from a user's EXR. Stored with their variance layer, which the metrics subtract.
+//! produced them (scene text, image size, integrator settings, sample count, Lightlab version and
+//! the format of the statistics), or loaded from an EXR another renderer wrote. Stored with their
+//! variance layer and, beside it, the render's statistics (`<reference>.json`), which say whether
+//! that variance estimates the variance of the mean — only then do the metrics subtract it.
 
+use crate::atomic::write_atomic;
 use crate::desc::ReferenceDesc;
-use crate::image_io::{output_layers, read_exr, write_exr};
+use crate::image_io::{RgbLayer, output_layers, read_exr, write_exr};
 use crate::metrics::Image;
 use crate::plan::fnv1a;
 use lightlab_core::Progress;
 use lightlab_integrators::paths::Layers;
-use lightlab_integrators::{Budget, IntegratorConfig};
+use lightlab_integrators::{Budget, IntegratorConfig, PixelVariance};
 use lightlab_scene::Scene;
 use std::path::{Path, PathBuf};
 
 /// Seed of every rendered reference (runs use seeds hashed from the experiment, so they never share it).
 const REFERENCE_SEED: u64 = 0x0005_EED0_F2EF;
+/// Version of what a cached reference holds: 2 since light-traced variances are per sample pass,
+/// k-nearest photon estimates leave out the k-th photon, and the statistics are saved beside.
+const REFERENCE_FORMAT: u32 = 2;
 
 /// A reference and where it came from.
 pub struct Reference {
@@ -23,6 +29,8 @@ pub struct Reference {
     pub path: PathBuf,
     /// Whether it was found in the cache (or given as a file) rather than rendered now.
     pub cached: bool,
+    /// Why the reference's variance is not subtracted from the errors, if it is not.
+    pub variance_note: Option<String>,
 }
 
 /// The cache file of a rendered reference: `<dir>/<scene>-<hash>.exr`.
@@ -35,7 +43,7 @@ pub fn cache_path(
     spp: u32,
 ) -> PathBuf {
     let key = format!(
-        "scene:{scene_text}\nresolution:{resolution:?}\nintegrator:{integrator}\nspp:{spp}\nseed:{REFERENCE_SEED}\nlightlab:{}",
+        "scene:{scene_text}\nresolution:{resolution:?}\nintegrator:{integrator}\nspp:{spp}\nseed:{REFERENCE_SEED}\nlightlab:{}\nformat:{REFERENCE_FORMAT}",
         env!("CARGO_PKG_VERSION")
     );
     dir.join(format!("{scene_name}-{:016x}.exr", fnv1a(key.as_bytes())))
@@ -53,8 +61,23 @@ pub fn reference(
     progress: &dyn Progress,
 ) -> Result<Reference, String> {
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let (path, cached) = match desc {
-        ReferenceDesc::Exr { path } => (experiment_dir.join(path), true),
+    let (path, cached, image, variance_note) = match desc {
+        ReferenceDesc::Exr {
+            path,
+            layer,
+            variance,
+        } => {
+            let path = experiment_dir.join(path);
+            let variance = variance.as_ref().map(|v| experiment_dir.join(v));
+            let image = load_foreign(&path, layer.as_deref(), variance.as_deref())?;
+            let note = image.variance.is_none().then(|| {
+                format!(
+                    "{} has no variance layer (and none was given), so nothing is subtracted from the errors",
+                    path.display()
+                )
+            });
+            (path, true, image, note)
+        }
         ReferenceDesc::Render { integrator, spp } => {
             let config = IntegratorConfig::from_ron(integrator)
                 .and_then(|c| c.with_paths_and_layers(None, class_layers(classes)))
@@ -67,19 +90,48 @@ pub fn reference(
                 &config.to_ron(),
                 *spp,
             );
-            if path.is_file() {
-                (path, true)
-            } else {
+            let stats_path = path.with_extension("json");
+            let cached = path.is_file() && stats_path.is_file();
+            if !cached {
+                let integrator = config.build();
+                integrator.check_scene(scene).map_err(|e| {
+                    format!(
+                        "reference integrator {integrator_ron}: {e}",
+                        integrator_ron = config.to_ron()
+                    )
+                })?;
                 let out =
-                    config
-                        .build()
-                        .render(scene, &Budget { spp: *spp }, REFERENCE_SEED, progress);
+                    integrator.render(scene, &Budget::Samples(*spp), REFERENCE_SEED, progress);
                 write_exr(&path, w, h, &output_layers(&out)).map_err(|e| e.to_string())?;
-                (path, false)
+                let json = serde_json::to_string_pretty(&out.stats).map_err(|e| e.to_string())?;
+                write_atomic(&stats_path, json.as_bytes())
+                    .map_err(|e| format!("{}: {e}", stats_path.display()))?;
             }
+            let stats: serde_json::Value = std::fs::read_to_string(&stats_path)
+                .ok()
+                .and_then(|t| serde_json::from_str(&t).ok())
+                .ok_or_else(|| {
+                    format!(
+                        "{}: cannot read the reference's statistics",
+                        stats_path.display()
+                    )
+                })?;
+            let variance: PixelVariance =
+                serde_json::from_value(stats["pixel_variance"].clone())
+                    .map_err(|e| format!("{}: pixel_variance: {e}", stats_path.display()))?;
+            let mut image = load_image(&path)?;
+            let note = match variance {
+                PixelVariance::NotAnEstimate(why) => {
+                    image.variance = None;
+                    Some(format!(
+                        "the reference's variance is not subtracted from the errors: {why}; render the reference with an independent sampler to have it subtracted"
+                    ))
+                }
+                _ => None,
+            };
+            (path, cached, image, note)
         }
     };
-    let image = load_image(&path)?;
     if (image.width, image.height) != (w, h) {
         return Err(format!(
             "reference {} is {}×{}, but the runs are {w}×{h}",
@@ -88,15 +140,21 @@ pub fn reference(
             image.height
         ));
     }
-    let classes = class_names(classes)
+    let mut classes: Vec<(String, Image)> = class_names(classes)
         .into_iter()
         .map(|name| Ok((name.clone(), load_layer(&path, &name)?)))
         .collect::<Result<_, String>>()?;
+    if matches!(desc, ReferenceDesc::Render { .. }) && variance_note.is_some() {
+        for (_, c) in &mut classes {
+            c.variance = None;
+        }
+    }
     Ok(Reference {
         image,
         classes,
         path,
         cached,
+        variance_note,
     })
 }
 
@@ -117,42 +175,86 @@ pub fn class_names(classes: &[String]) -> Vec<String> {
         .collect()
 }
 
-/// Reads layer `name` of an EXR and its variance (`name.variance`, zero when absent).
+/// Reads layer `name` of an EXR and its variance (`name.variance`; `None` when absent).
 pub fn load_layer(path: &Path, name: &str) -> Result<Image, String> {
     let (width, height, layers) = read_exr(path).map_err(|e| e.to_string())?;
-    let layer = |n: &str| {
-        layers
-            .iter()
-            .find(|l| l.name == n)
-            .map(|l| l.pixels.clone())
-    };
-    let mean = layer(name).ok_or_else(|| {
+    let mean = find(&layers, name).ok_or_else(|| {
         format!(
             "{}: no layer named \"{name}\" (a reference for path classes needs one per class)",
             path.display()
         )
     })?;
-    let variance = layer(&format!("{name}.variance")).unwrap_or_else(|| vec![[0.0; 3]; mean.len()]);
     Ok(Image {
         width,
         height,
         mean,
-        variance,
+        variance: find(&layers, &format!("{name}.variance")),
     })
 }
 
-/// Reads an EXR with a `radiance` layer and optionally a `variance` layer (zero when absent).
+fn find(layers: &[RgbLayer], name: &str) -> Option<Vec<[f32; 3]>> {
+    layers
+        .iter()
+        .find(|l| l.name == name)
+        .map(|l| l.pixels.clone())
+}
+
+fn names(layers: &[RgbLayer]) -> String {
+    layers
+        .iter()
+        .map(|l| format!("\"{}\"", l.name))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Reads an EXR Lightlab wrote: layer `radiance` and, if present, `variance`.
 pub fn load_image(path: &Path) -> Result<Image, String> {
+    load_foreign(path, Some("radiance"), None)
+}
+
+/// Reads an image from an EXR another program may have written (see `ReferenceDesc::Exr`): the
+/// layer `layer`, or `radiance`, or the unnamed R, G, B channels, or the only RGB layer; its
+/// variance from the layer `variance`/`Variance`, or from the image of `variance_file`.
+pub fn load_foreign(
+    path: &Path,
+    layer: Option<&str>,
+    variance_file: Option<&Path>,
+) -> Result<Image, String> {
     let (width, height, layers) = read_exr(path).map_err(|e| e.to_string())?;
-    let layer = |name: &str| {
-        layers
-            .iter()
-            .find(|l| l.name == name)
-            .map(|l| l.pixels.clone())
+    let mean = match layer {
+        Some(name) => find(&layers, name).ok_or_else(|| {
+            format!(
+                "{}: no RGB layer named \"{name}\" (it has {})",
+                path.display(),
+                names(&layers)
+            )
+        })?,
+        None => find(&layers, "radiance")
+            .or_else(|| find(&layers, ""))
+            .or_else(|| (layers.len() == 1).then(|| layers[0].pixels.clone()))
+            .ok_or_else(|| {
+                format!(
+                    "{}: which layer is the image? It has {}; name one with `layer`",
+                    path.display(),
+                    names(&layers)
+                )
+            })?,
     };
-    let mean = layer("radiance")
-        .ok_or_else(|| format!("{}: no layer named \"radiance\"", path.display()))?;
-    let variance = layer("variance").unwrap_or_else(|| vec![[0.0; 3]; mean.len()]);
+    let variance = match variance_file {
+        Some(v) => {
+            let var = load_foreign(v, None, None).map_err(|e| format!("variance file: {e}"))?;
+            if (var.width, var.height) != (width, height) {
+                return Err(format!(
+                    "variance file {} is {}×{}, the image {width}×{height}",
+                    v.display(),
+                    var.width,
+                    var.height
+                ));
+            }
+            Some(var.mean)
+        }
+        None => find(&layers, "variance").or_else(|| find(&layers, "Variance")),
+    };
     Ok(Image {
         width,
         height,

@@ -1,12 +1,12 @@
 //! Tables and plots of an experiment, rebuilt from its finished runs: `runs.csv` (one tidy row per
 //! run and metric), `summary.json` (per setting: means over trials with standard errors, bias² and
-//! variance; per series: the fitted log–log convergence slope with its 95 % interval), the mean image
-//! of every setting (`images/`), and SVG plots per scene of MSE against samples, MSE against time,
-//! and efficiency.
+//! variance, efficiency as a ratio of means; per series: the fitted log–log convergence slope with
+//! its 95 % interval and the points it left out), the mean image of every setting (`images/`), and
+//! SVG plots per scene of MSE against samples, MSE against time, and efficiency.
 
 use crate::atomic::write_atomic;
 use crate::image_io::{RgbLayer, write_exr};
-use crate::metrics::{REL_EPSILON, bias_variance, fit_line};
+use crate::metrics::{Efficiency, Fit, REL_EPSILON, bias_variance, efficiency, fit_power_law};
 use crate::plot::{LinePlot, Series, render_svg};
 use crate::reference::load_image;
 use crate::runner::RunRecord;
@@ -54,6 +54,7 @@ fn csv_rows(records: &[RunRecord]) -> Vec<CsvRow> {
         let metrics = [
             ("spp", r.spp as f64),
             ("wall_seconds", r.wall_seconds),
+            ("pilot_seconds", r.pilot_seconds),
             ("samples", r.samples as f64),
             ("rays", r.rays as f64),
             ("non_finite", r.non_finite as f64),
@@ -61,7 +62,6 @@ fn csv_rows(records: &[RunRecord]) -> Vec<CsvRow> {
             ("rel_mse", r.errors.rel_mse),
             ("mae", r.errors.mae),
             ("reference_variance", r.errors.reference_variance),
-            ("efficiency", r.efficiency),
         ];
         let per_class = r.class_errors.iter().flat_map(|(class, e)| {
             [
@@ -99,7 +99,6 @@ struct RunPoint {
     spp: f64,
     wall_seconds: f64,
     mse: f64,
-    efficiency: f64,
     /// MSE of each path-class layer.
     class_mse: BTreeMap<String, f64>,
 }
@@ -121,7 +120,6 @@ fn points(rows: &[CsvRow]) -> Vec<RunPoint> {
             "spp" => p.spp = row.value,
             "wall_seconds" => p.wall_seconds = row.value,
             "mse" => p.mse = row.value,
-            "efficiency" => p.efficiency = row.value,
             m => {
                 if let Some(class) = m.strip_prefix("mse[").and_then(|c| c.strip_suffix(']')) {
                     p.class_mse.insert(class.to_string(), row.value);
@@ -171,10 +169,15 @@ struct SettingSummary {
     mse: (f64, f64),
     rel_mse: (f64, f64),
     mae: (f64, f64),
-    efficiency: (f64, f64),
+    /// 1 / (mean MSE × mean time), with its delta-method standard error.
+    efficiency: Efficiency,
+    /// 1 / (mean relMSE × mean time).
+    rel_efficiency: Efficiency,
     bias2: Option<f64>,
     variance: Option<f64>,
     non_finite: u64,
+    /// What the method's pixels converge to (see `PixelLimit`).
+    pixel_limit: lightlab_integrators::PixelLimit,
     /// Mean image over the trials (layers `radiance` and `variance` = variance of that mean).
     image: Option<String>,
     /// Errors of each path-class layer (the experiment's `classes`, then `rest`).
@@ -241,10 +244,8 @@ fn sanitize(s: &str) -> String {
 struct SeriesFit {
     scene: String,
     series: String,
-    /// Slope of ln MSE against ln spp and the half-width of its 95 % interval.
-    slope: f64,
-    slope_ci95: f64,
-    points: usize,
+    /// Fit of ln MSE against ln spp (slope, 95 % half-width, χ²/dof, points left out).
+    fit: Fit,
 }
 
 /// Rewrites `runs.csv`, `summary.json` and the plots of `out_dir` from its finished runs.
@@ -308,10 +309,18 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             mse: get(|r| r.errors.mse),
             rel_mse: get(|r| r.errors.rel_mse),
             mae: get(|r| r.errors.mae),
-            efficiency: get(|r| r.efficiency),
+            efficiency: efficiency(
+                &rs.iter().map(|r| r.errors.mse).collect::<Vec<_>>(),
+                &rs.iter().map(|r| r.wall_seconds).collect::<Vec<_>>(),
+            ),
+            rel_efficiency: efficiency(
+                &rs.iter().map(|r| r.errors.rel_mse).collect::<Vec<_>>(),
+                &rs.iter().map(|r| r.wall_seconds).collect::<Vec<_>>(),
+            ),
             bias2: bv.map(|b| b.bias2),
             variance: bv.map(|b| b.variance),
             non_finite: rs.iter().map(|r| r.non_finite).sum(),
+            pixel_limit: rs[0].pixel_limit,
             image,
             classes: rs[0]
                 .class_errors
@@ -338,7 +347,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
     let summary = serde_json::json!({
         "runs": records.len(),
         "rel_mse_epsilon": REL_EPSILON,
-        "metrics": "mse and rel_mse have the reference's own variance subtracted; values are (mean over trials, standard error)",
+        "metrics": "mse and rel_mse have the reference's own variance subtracted where it is an estimate (see warnings); values are (mean over trials, standard error); efficiency = 1/(mean error × mean seconds) with a delta-method standard error, error_significant false where the mean error is not significantly above zero; convergence fits weight each point by its pooled log-space standard error and list the points left out (MSE ≤ 0)",
         "settings": settings,
         "convergence": plots.fits,
         "plots": plots.files,
@@ -349,6 +358,15 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             .map_err(io::Error::other)?
             .as_bytes(),
     )
+}
+
+/// A series' legend with its fitted slope and the points the fit left out.
+fn fit_legend(label: &str, f: &Fit) -> String {
+    let mut text = format!("{label}: slope {:.2} ± {:.2}", f.slope, f.slope_ci95);
+    if !f.excluded.is_empty() {
+        text += &format!(" ({} point(s) with MSE ≤ 0 left out)", f.excluded.len());
+    }
+    text
 }
 
 struct Plots {
@@ -392,7 +410,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
         }
         let mut mse_spp = Vec::new();
         let mut mse_time = Vec::new();
-        let mut efficiency = Vec::new();
+        let mut efficiency_series = Vec::new();
         for label in &order {
             let mut a = Vec::new();
             let mut b = Vec::new();
@@ -400,35 +418,29 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
             for trials in series[label].values() {
                 let (spp, _) = mean_se(&trials.iter().map(|p| p.spp).collect::<Vec<_>>());
                 let (time, _) = mean_se(&trials.iter().map(|p| p.wall_seconds).collect::<Vec<_>>());
-                let (mse, mse_se) = mean_se(&trials.iter().map(|p| p.mse).collect::<Vec<_>>());
-                let (eff, eff_se) =
-                    mean_se(&trials.iter().map(|p| p.efficiency).collect::<Vec<_>>());
-                a.push((spp, mse, mse_se));
-                b.push((time, mse, mse_se));
-                c.push((spp, eff, eff_se));
+                let mse: Vec<f64> = trials.iter().map(|p| p.mse).collect();
+                let (m, mse_se) = mean_se(&mse);
+                a.push((spp, m, mse_se));
+                b.push((time, m, mse_se));
+                let times: Vec<f64> = trials.iter().map(|p| p.wall_seconds).collect();
+                let e = efficiency(&mse, &times);
+                if let Some(v) = e.value {
+                    c.push((spp, v, e.se.unwrap_or(0.0)));
+                }
             }
             a.sort_by(|x, y| x.0.total_cmp(&y.0));
             b.sort_by(|x, y| x.0.total_cmp(&y.0));
             c.sort_by(|x, y| x.0.total_cmp(&y.0));
-            let fit = fit_line(
-                &a.iter()
-                    .filter(|p| p.0 > 0.0 && p.1 > 0.0)
-                    .map(|p| (p.0.ln(), p.1.ln()))
-                    .collect::<Vec<_>>(),
-            );
-            let legend = match fit {
-                Some(f) if f.points > 2 => {
-                    format!("{label}: slope {:.2} ± {:.2}", f.slope, f.slope_ci95)
-                }
-                _ => label.clone(),
+            let fit = fit_power_law(&a, true);
+            let legend = match &fit {
+                Some(f) => fit_legend(label, f),
+                None => label.clone(),
             };
             if let Some(f) = fit {
                 fits.push(SeriesFit {
                     scene: scene.into(),
                     series: label.clone(),
-                    slope: f.slope,
-                    slope_ci95: f.slope_ci95,
-                    points: f.points,
+                    fit: f,
                 });
             }
             mse_spp.push(Series {
@@ -439,7 +451,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                 label: label.clone(),
                 points: b,
             });
-            efficiency.push(Series {
+            efficiency_series.push(Series {
                 label: label.clone(),
                 points: c,
             });
@@ -463,8 +475,8 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                 "efficiency",
                 "Efficiency 1 / (MSE · time)",
                 "samples per pixel",
-                "1 / (MSE · s)",
-                efficiency,
+                "1 / (mean MSE · mean s) ± 1 s.e.",
+                efficiency_series,
             ),
         ];
         for (name, title, x, y, series) in plots {
@@ -511,24 +523,20 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                 }
                 a.sort_by(|x, y| x.0.total_cmp(&y.0));
                 b.sort_by(|x, y| x.0.total_cmp(&y.0));
-                if let Some(f) = fit_line(
-                    &a.iter()
-                        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
-                        .map(|p| (p.0.ln(), p.1.ln()))
-                        .collect::<Vec<_>>(),
-                ) {
+                let fit = fit_power_law(&a, true);
+                by_spp.push(Series {
+                    label: fit
+                        .as_ref()
+                        .map_or_else(|| label.clone(), |f| fit_legend(label, f)),
+                    points: a,
+                });
+                if let Some(f) = fit {
                     fits.push(SeriesFit {
                         scene: scene.into(),
                         series: format!("{label} [{class}]"),
-                        slope: f.slope,
-                        slope_ci95: f.slope_ci95,
-                        points: f.points,
+                        fit: f,
                     });
                 }
-                by_spp.push(Series {
-                    label: label.clone(),
-                    points: a,
-                });
                 by_time.push(Series {
                     label: label.clone(),
                     points: b,

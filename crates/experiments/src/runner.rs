@@ -7,16 +7,15 @@ use crate::atomic::write_atomic;
 use crate::desc::{BudgetDesc, ExperimentDesc, load_experiment};
 use crate::image_io::{output_layers, write_exr};
 use crate::metrics::{Errors, errors};
-use crate::plan::{RunSpec, expand, fnv1a, shard};
+use crate::plan::{RunSpec, expand, shard};
 use crate::reference::{Reference, class_layers, reference};
 use crate::report::write_report;
-use lightlab_core::{NoProgress, Progress};
-use lightlab_integrators::{Budget, Film, Integrator, IntegratorConfig, RenderOutput};
+use lightlab_core::Progress;
+use lightlab_integrators::{IntegratorConfig, PixelLimit};
 use lightlab_scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 /// Where results go and which part of the sweep to run.
 #[derive(Clone, Debug)]
@@ -44,6 +43,9 @@ pub struct RunRecord {
     pub budget_seconds: Option<f64>,
     pub spp: u32,
     pub wall_seconds: f64,
+    /// Of `wall_seconds`, the pilot renders that calibrated a time budget (stratified samplers).
+    #[serde(default)]
+    pub pilot_seconds: f64,
     pub samples: u64,
     pub rays: u64,
     pub non_finite: u64,
@@ -54,8 +56,10 @@ pub struct RunRecord {
     pub class_errors: Vec<(String, Errors)>,
     /// The reference image the errors were measured against.
     pub reference: PathBuf,
-    /// 1 / (MSE · wall seconds).
-    pub efficiency: f64,
+    /// What the method's pixel values converge to (`OneCameraPath` for `Ppm`: not the pixel
+    /// integral the reference estimates).
+    #[serde(default)]
+    pub pixel_limit: PixelLimit,
     pub lightlab_version: String,
 }
 
@@ -66,84 +70,6 @@ pub struct Outcome {
     pub ran: usize,
     pub skipped: usize,
     pub warnings: Vec<String>,
-}
-
-/// Renders `integrator` within `budget`. A time budget renders 1-spp passes with per-pass seeds and
-/// merges them until the time is used (at least one pass).
-pub fn render_budget(
-    integrator: &dyn Integrator,
-    scene: &Scene,
-    budget: BudgetDesc,
-    seed: u64,
-    progress: &dyn Progress,
-) -> RenderOutput {
-    match budget {
-        BudgetDesc::Samples(spp) => integrator.render(scene, &Budget { spp }, seed, progress),
-        // A progressive integrator keeps refining one state: it runs pass after pass until the
-        // time is up (merging independent short runs would never shrink its radius).
-        BudgetDesc::Seconds(seconds) if integrator.progressive() => {
-            let start = Instant::now();
-            progress.start(1000);
-            let mut done = 0u64;
-            let mut out = integrator.render_passes(
-                scene,
-                &Budget { spp: u32::MAX },
-                seed,
-                &NoProgress,
-                &mut |_, _| {
-                    let elapsed = start.elapsed().as_secs_f64();
-                    let permille = ((elapsed / seconds).min(1.0) * 1000.0) as u64;
-                    progress.advance(permille.saturating_sub(done));
-                    done = done.max(permille);
-                    elapsed < seconds
-                },
-            );
-            out.stats.wall_seconds = start.elapsed().as_secs_f64();
-            out
-        }
-        BudgetDesc::Seconds(seconds) => {
-            let start = Instant::now();
-            progress.start(1000);
-            let mut done = 0u64;
-            let mut total: Option<RenderOutput> = None;
-            for pass in 0u64.. {
-                let pass_seed = fnv1a(format!("{seed}|pass {pass}").as_bytes());
-                let out = integrator.render(scene, &Budget { spp: 1 }, pass_seed, &NoProgress);
-                total = Some(match total {
-                    None => out,
-                    Some(mut t) => {
-                        merge_film(&mut t.film, &out.film);
-                        for ((_, into), (_, from)) in t.layers.iter_mut().zip(&out.layers) {
-                            merge_film(into, from);
-                        }
-                        t.stats.spp += 1;
-                        t.stats.samples += out.stats.samples;
-                        t.stats.rays += out.stats.rays;
-                        for (a, b) in t.stats.non_finite.iter_mut().zip(&out.stats.non_finite) {
-                            a.1 += b.1;
-                        }
-                        t
-                    }
-                });
-                let elapsed = start.elapsed().as_secs_f64();
-                let permille = ((elapsed / seconds).min(1.0) * 1000.0) as u64;
-                progress.advance(permille.saturating_sub(done));
-                done = done.max(permille);
-                if elapsed >= seconds {
-                    break;
-                }
-            }
-            let mut out = total.expect("at least one pass");
-            out.stats.wall_seconds = start.elapsed().as_secs_f64();
-            out
-        }
-    }
-}
-
-fn merge_film(into: &mut Film, from: &Film) {
-    for (a, b) in into.pixels.iter_mut().zip(&from.pixels) {
-        a.merge(b);
-    }
 }
 
 /// Loads a scene with the experiment's resolution override; returns it with its text.
@@ -203,7 +129,7 @@ pub fn run_experiment(
                 match &desc.reference {
                     crate::desc::ReferenceDesc::Render { integrator, spp } =>
                         format!("{integrator} at {spp} spp"),
-                    crate::desc::ReferenceDesc::Exr { path } => path.display().to_string(),
+                    crate::desc::ReferenceDesc::Exr { path, .. } => path.display().to_string(),
                 }
             ));
             let r = reference(
@@ -221,19 +147,20 @@ pub fn run_experiment(
                 if r.cached { "cached:" } else { "rendered:" },
                 r.path.display()
             ));
+            if let Some(note) = &r.variance_note {
+                warnings.push(format!("{}: {note}", run.scene_name));
+            }
             scenes.insert(run.scene.clone(), (scene, r));
         }
         let (scene, reference) = &scenes[&run.scene];
         let config = IntegratorConfig::from_ron(&run.integrator)
             .and_then(|c| c.with_paths_and_layers(None, class_layers(&desc.classes)))
             .map_err(|e| e.to_string())?;
-        let out = render_budget(
-            config.build().as_ref(),
-            scene,
-            run.budget,
-            run.seed,
-            per_run,
-        );
+        let integrator = config.build();
+        integrator
+            .check_scene(scene)
+            .map_err(|e| format!("{} / {}: {e}", run.scene_name, run.method))?;
+        let out = integrator.render(scene, &run.budget.into(), run.seed, per_run);
         let layers = output_layers(&out);
         let e = errors(&layers[0].pixels, &reference.image)
             .ok_or("image and reference sizes differ")?;
@@ -245,6 +172,13 @@ pub fn run_experiment(
                 .ok_or_else(|| format!("the render has no layer {name}"))?;
             let e = errors(&layer.pixels, image).ok_or("layer and reference sizes differ")?;
             class_errors.push((name.clone(), e));
+        }
+        if out.stats.pixel_limit == PixelLimit::OneCameraPath {
+            warnings.push(format!(
+                "{} / {}: {} converges to the radiance along one camera path per pixel, not to the \
+                 pixel's box-filtered value the reference estimates; its error keeps that difference",
+                run.scene_name, run.method, out.stats.integrator
+            ));
         }
         if e.reference_variance > 0.1 * e.mse.abs() {
             warnings.push(format!(
@@ -271,13 +205,14 @@ pub fn run_experiment(
             },
             spp: out.stats.spp,
             wall_seconds: out.stats.wall_seconds,
+            pilot_seconds: out.stats.pilot_seconds,
             samples: out.stats.samples,
             rays: out.stats.rays,
             non_finite: out.stats.non_finite_total(),
             errors: e,
             class_errors,
             reference: reference.path.clone(),
-            efficiency: 1.0 / (e.mse * out.stats.wall_seconds),
+            pixel_limit: out.stats.pixel_limit,
             lightlab_version: env!("CARGO_PKG_VERSION").into(),
         };
         let dir = run_dir(&out_dir, run);

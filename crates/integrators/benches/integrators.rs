@@ -32,9 +32,11 @@ fn main() {
                     .num_threads(threads)
                     .build()
                     .expect("thread pool");
-                pool.install(|| integrator.render(&scene, &Budget { spp: 1 }, 0, &NoProgress));
+                pool.install(|| integrator.render(&scene, &Budget::Samples(1), 0, &NoProgress));
                 let (out, wall, cpu) = timed(|| {
-                    pool.install(|| integrator.render(&scene, &Budget { spp }, 1, &NoProgress))
+                    pool.install(|| {
+                        integrator.render(&scene, &Budget::Samples(spp), 1, &NoProgress)
+                    })
                 });
                 let paths = out.stats.samples as f64;
                 let speed_up =

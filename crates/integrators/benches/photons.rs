@@ -10,7 +10,7 @@ use glam::Vec3;
 use lightlab_integrators::Counters;
 use lightlab_integrators::photon::grid::HashGrid;
 use lightlab_integrators::photon::map::PhotonMap;
-use lightlab_integrators::photon::trace::{Keep, Photon, PhotonTracing, trace_photons};
+use lightlab_integrators::photon::trace::{Keep, Photon, PhotonTracing, Traced, trace_photons};
 use lightlab_testkit::timing::{peak_rss_bytes, timed};
 use rayon::prelude::*;
 use std::path::Path;
@@ -80,7 +80,7 @@ fn main() {
                 timed(|| pool(threads).install(|| trace_photons(&scene, 1, 0, n, how, &mut c)));
             println!(
                 "| {name} | {threads} | {n} | {} | {wall:.2} | {cpu:.2} | {:.3} | {:.3} | {:.2} |",
-                photons.len(),
+                photons.photons.len(),
                 n as f64 / cpu / 1e6,
                 n as f64 / wall / 1e6,
                 c.rays as f64 / wall / 1e6
@@ -96,11 +96,13 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|---|");
     for paths in [400_000u64, 4_000_000] {
-        let photons =
-            pool(2).install(|| trace_photons(&scene, 2, 0, paths, how, &mut Counters::default()));
+        let photons = pool(2)
+            .install(|| trace_photons(&scene, 2, 0, paths, how, &mut Counters::default()))
+            .photons;
         let n = photons.len();
         let qs = queries(&photons);
-        let (map, build, _) = timed(|| pool(2).install(|| PhotonMap::new(photons.clone())));
+        let (map, build, _) =
+            timed(|| pool(2).install(|| PhotonMap::new(Traced::ungrouped(photons.clone()))));
         // The radius that holds about 50 photons on average, from the k-nearest distances.
         let mean_r2 = qs
             .iter()
@@ -132,7 +134,7 @@ fn main() {
                     qs.par_iter()
                         .map(|&q| {
                             let mut k = 0usize;
-                            map.within(q, r2, |_, _| k += 1);
+                            map.within(q, r2, |_, _, _| k += 1);
                             k
                         })
                         .sum::<usize>()

@@ -29,9 +29,10 @@
 //! so the camera dimensions keep the layout stratified samplers expect.
 
 use crate::config::{BdptConfig, Mis};
-use crate::film::{Film, PixelSums};
+use crate::film::Film;
+use crate::passes::{PassSpec, Schedule, run_passes};
 use crate::paths::{PathClass, Router};
-use crate::render::Counters;
+use crate::render::{Counters, PixelVariance};
 use crate::roulette::survives;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::{Vec2, Vec3};
@@ -40,8 +41,6 @@ use lightlab_geometry::{NO_LIGHT, spawn_ray, spawn_ray_to, spawn_ray_to_point};
 use lightlab_materials::SurfaceBsdf;
 use lightlab_samplers::{Independent, Sampler, SamplerVisitor};
 use lightlab_scene::{Light, Scene};
-use rayon::prelude::*;
-use std::time::Instant;
 
 /// Technique numbers for the non-finite counters.
 const CONNECTION: usize = 0;
@@ -757,13 +756,15 @@ impl Outlier {
     }
 }
 
-/// The pixel sample and strategy a splat came from, to replay it if it turns out an outlier.
+/// A splat, and the pixel sample and strategy it came from, to replay it if it turns out an
+/// outlier.
 #[derive(Clone, Copy, Debug)]
 struct SplatSource {
-    /// Index of its full-image entry in the tile's splats.
-    splat: u32,
+    /// The pixel it lands in, and its value.
+    target: u32,
+    value: Rgb,
     pixel: (u32, u32),
-    sample: u32,
+    sample: u64,
     s: u16,
     t: u16,
 }
@@ -882,20 +883,20 @@ impl Bdpt {
         scene: &Scene,
         seed: u64,
         spp: u32,
-        results: &[TileResult],
+        items: &[WorkItem],
         film: &Film,
         factor: f32,
     ) -> Vec<Outlier> {
         let mut out = Vec::new();
-        for r in results {
+        for r in items {
             for src in &r.splat_sources {
-                let (pixel, _, value) = r.splats[src.splat as usize];
-                let mean = film.mean(pixel as usize);
+                let value = src.value;
+                let mean = film.mean(src.target as usize);
                 let scale = mean[0].max(mean[1]).max(mean[2]);
                 if (value.max_component() as f64) <= factor as f64 * scale.max(f64::MIN_POSITIVE) {
                     continue;
                 }
-                let replayed = self.replay(scene, seed, spp, src.pixel, src.sample as u64);
+                let replayed = self.replay(scene, seed, spp, src.pixel, src.sample);
                 if let Some(mut o) = replayed.into_iter().find(|o| {
                     (o.s, o.t) == (src.s as u32, src.t as u32)
                         && o.value == [value.r, value.g, value.b]
@@ -966,52 +967,57 @@ impl Bdpt {
 }
 
 impl Integrator for Bdpt {
-    fn render(
+    fn render_passes(
         &self,
         scene: &Scene,
         budget: &Budget,
         seed: u64,
         progress: &dyn Progress,
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
+        let spp = match *budget {
+            Budget::Samples(n) => n,
+            Budget::Seconds(_) => 1,
+        };
         self.config.sampler.dispatch(
-            budget.spp,
+            spp,
             RenderWith {
                 bdpt: self,
                 scene,
                 budget,
                 seed,
                 progress,
+                on_pass,
             },
         )
     }
+
+    fn needs_sample_count(&self) -> bool {
+        self.config.sampler.needs_sample_count()
+    }
 }
 
-struct RenderWith<'a> {
+struct RenderWith<'a, 'b> {
     bdpt: &'a Bdpt,
     scene: &'a Scene,
     budget: &'a Budget,
     seed: u64,
     progress: &'a dyn Progress,
+    on_pass: &'b mut dyn FnMut(u32, &Film) -> bool,
 }
 
-/// Splats of one tile, added to the image in tile order.
-struct TileResult {
-    x0: u32,
-    y0: u32,
-    w: u32,
-    /// Per pixel: the full image, then each layer.
-    sums: Vec<PixelSums>,
-    /// (pixel, slot, value).
-    splats: Vec<(u32, u32, Rgb)>,
+/// What one work item keeps besides its contributions: the subpath buffers it reuses, and the
+/// outliers and splat provenance it logged.
+#[derive(Default)]
+struct WorkItem {
+    camera: Vec<Vertex>,
+    light: Vec<Vertex>,
+    outliers: Vec<Outlier>,
     /// Where each splat of the full image came from (only with `outliers`).
     splat_sources: Vec<SplatSource>,
-    outliers: Vec<Outlier>,
-    counters: Counters,
 }
 
-const TILE: u32 = 16;
-
-impl SamplerVisitor for RenderWith<'_> {
+impl SamplerVisitor for RenderWith<'_, '_> {
     type Output = RenderOutput;
 
     fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
@@ -1021,207 +1027,155 @@ impl SamplerVisitor for RenderWith<'_> {
             budget,
             seed,
             progress,
+            on_pass,
         } = self;
-        let start = Instant::now();
         let cfg = &bdpt.config;
         let (width, height) = (scene.camera.width, scene.camera.height);
-        let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
-            .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-            .collect();
-        progress.start(width as u64 * height as u64);
         let router = &bdpt.router;
         // Per pixel: the full image, the class or bounce layers, then two per strategy.
         let first_strategy = 1 + router.layer_count();
-        let slots = first_strategy + 2 * bdpt.strategies.len();
-        let results: Vec<TileResult> = tiles
-            .par_iter()
-            .map(|&(x0, y0)| {
-                let (w, h) = (TILE.min(width - x0), TILE.min(height - y0));
-                let mut counters = Counters::default();
-                let mut sums = vec![PixelSums::default(); (w * h) as usize * slots];
-                let mut splats = Vec::new();
-                let mut outliers = Vec::new();
-                // Non-finite counts of the current sample (the sample holds `counters`).
-                let mut counters_nf = [0u64; 2];
-                let mut splat_sources = Vec::new();
-                let mut l = vec![Rgb::BLACK; slots];
-                let mut camera = Vec::new();
-                let mut light = Vec::new();
-                for y in 0..h {
-                    for x in 0..w {
-                        let mut sampler = prototype.clone();
-                        let mut light_sampler = Independent::new();
-                        for i in 0..budget.spp {
-                            let k = (y * w + x) as usize * slots;
-                            let running = sums[k];
-                            l.fill(Rgb::BLACK);
-                            bdpt.pixel_sample(
-                                scene,
-                                seed,
-                                (x0 + x, y0 + y),
-                                i as u64,
-                                &mut sampler,
-                                &mut light_sampler,
-                                (&mut camera, &mut light),
-                                &mut counters,
-                                |c, light, camera| {
-                                    let value = c.unweighted * c.weight;
-                                    let finite = value.is_finite();
-                                    if !finite {
-                                        counters_nf[if c.raster.is_some() {
-                                            SPLAT
-                                        } else {
-                                            CONNECTION
-                                        }] += 1;
-                                    }
-                                    // Camera-side contributions are compared with their
-                                    // pixel's running mean here; splats (t = 1), which land in
-                                    // other pixels, with their pixel's final mean after the
-                                    // render (see `splat_outliers`).
-                                    let mean = running.mean();
-                                    let scale = mean[0].max(mean[1]).max(mean[2]);
-                                    let outlier = match cfg.outliers {
-                                        Some(factor) if c.raster.is_none() => {
-                                            running.count >= OUTLIER_MIN_SAMPLES
-                                                && value.max_component() as f64
-                                                    > factor as f64 * scale.max(f64::MIN_POSITIVE)
-                                        }
-                                        _ => false,
-                                    };
-                                    if !finite || outlier {
-                                        outliers.push(Outlier::new(
-                                            (x0 + x, y0 + y),
-                                            i as u64,
-                                            c,
-                                            mean,
-                                            light,
-                                            camera,
-                                        ));
-                                    }
-                                    if !finite {
-                                        return;
-                                    }
-                                    // (slot, value) pairs this contribution adds to.
-                                    let mut targets = [(0usize, value); 4];
-                                    let mut n = 1;
-                                    if first_strategy > 1 {
-                                        targets[n] = (1 + c.layer, value);
-                                        n += 1;
-                                    }
-                                    if let Some(k) = bdpt.strategy_slot(c.s, c.t)
-                                        && c.unweighted.is_finite()
-                                    {
-                                        targets[n] = (first_strategy + k, value);
-                                        targets[n + 1] = (first_strategy + k + 1, c.unweighted);
-                                        n += 2;
-                                    }
-                                    match c.raster {
-                                        Some(r) => {
-                                            let (px, py) = (
-                                                (r.x as u32).min(width - 1),
-                                                (r.y as u32).min(height - 1),
-                                            );
-                                            for &(slot, v) in &targets[..n] {
-                                                splats.push((py * width + px, slot as u32, v));
-                                            }
-                                            if cfg.outliers.is_some() {
-                                                splat_sources.push(SplatSource {
-                                                    splat: (splats.len() - n) as u32,
-                                                    pixel: (x0 + x, y0 + y),
-                                                    sample: i,
-                                                    s: c.s as u16,
-                                                    t: c.t as u16,
-                                                });
-                                            }
-                                        }
-                                        None => {
-                                            for &(slot, v) in &targets[..n] {
-                                                l[slot] += v;
-                                            }
-                                        }
-                                    }
-                                },
-                            );
-                            for (k, n) in counters_nf.iter_mut().enumerate() {
-                                counters.non_finite[k] += *n;
-                                *n = 0;
+        let spec = PassSpec {
+            width,
+            height,
+            slots: first_strategy + 2 * bdpt.strategies.len(),
+            splats: true,
+            groups: 0,
+            independent: cfg.sampler.independent(),
+        };
+        let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
+        let out = run_passes(
+            &spec,
+            router,
+            &mut schedule,
+            on_pass,
+            |x, y, index, sink, counters, item: &mut WorkItem| {
+                let mut sampler = prototype.clone();
+                let mut light_sampler = Independent::new();
+                // Non-finite counts of this sample (the sample holds `counters`).
+                let mut non_finite = [0u64; 2];
+                let (running_mean, running_count) = sink.running_mean();
+                let scale = running_mean[0].max(running_mean[1]).max(running_mean[2]);
+                let WorkItem {
+                    camera,
+                    light,
+                    outliers,
+                    splat_sources,
+                } = item;
+                bdpt.pixel_sample(
+                    scene,
+                    seed,
+                    (x, y),
+                    index,
+                    &mut sampler,
+                    &mut light_sampler,
+                    (camera, light),
+                    counters,
+                    |c, light, camera| {
+                        let value = c.unweighted * c.weight;
+                        let finite = value.is_finite();
+                        if !finite {
+                            non_finite[if c.raster.is_some() {
+                                SPLAT
+                            } else {
+                                CONNECTION
+                            }] += 1;
+                        }
+                        // Camera-side contributions are compared with their pixel's mean over
+                        // the passes before this one; splats (t = 1), which land in other
+                        // pixels, with their pixel's final mean after the render (see
+                        // `splat_outliers`).
+                        let outlier = match cfg.outliers {
+                            Some(factor) if c.raster.is_none() => {
+                                running_count >= OUTLIER_MIN_SAMPLES
+                                    && value.max_component() as f64
+                                        > factor as f64 * scale.max(f64::MIN_POSITIVE)
                             }
-                            for (sum, v) in sums[k..k + slots].iter_mut().zip(&l) {
-                                sum.add([v.r as f64, v.g as f64, v.b as f64]);
+                            _ => false,
+                        };
+                        if !finite || outlier {
+                            outliers.push(Outlier::new(
+                                (x, y),
+                                index,
+                                c,
+                                running_mean,
+                                light,
+                                camera,
+                            ));
+                        }
+                        if !finite {
+                            return;
+                        }
+                        let strategy = bdpt
+                            .strategy_slot(c.s, c.t)
+                            .filter(|_| c.unweighted.is_finite());
+                        match c.raster {
+                            Some(r) => {
+                                let pixel = sink.pixel_at(r);
+                                sink.splat_routed(pixel, c.layer, value);
+                                if let Some(k) = strategy {
+                                    sink.splat_slot(pixel, first_strategy + k, value);
+                                    sink.splat_slot(pixel, first_strategy + k + 1, c.unweighted);
+                                }
+                                if cfg.outliers.is_some() {
+                                    splat_sources.push(SplatSource {
+                                        target: pixel,
+                                        value,
+                                        pixel: (x, y),
+                                        sample: index,
+                                        s: c.s as u16,
+                                        t: c.t as u16,
+                                    });
+                                }
+                            }
+                            None => {
+                                sink.add_routed(c.layer, value);
+                                if let Some(k) = strategy {
+                                    sink.add_slot(first_strategy + k, value);
+                                    sink.add_slot(first_strategy + k + 1, c.unweighted);
+                                }
                             }
                         }
-                    }
+                    },
+                );
+                for (k, n) in non_finite.iter().enumerate() {
+                    counters.non_finite[k] += *n;
                 }
-                progress.advance((w * h) as u64);
-                TileResult {
-                    x0,
-                    y0,
-                    w,
-                    sums,
-                    splats,
-                    splat_sources,
-                    outliers,
-                    counters,
-                }
-            })
-            .collect();
-
-        // Own samples per pixel, and splats (t = 1) as a light-tracing estimate over all paths.
-        let pixels = width as usize * height as usize;
-        let paths = pixels as u64 * budget.spp as u64;
-        let mut films: Vec<Film> = (0..slots).map(|_| Film::new(width, height)).collect();
-        let mut splat_sum = vec![[0.0f64; 3]; pixels * slots];
-        let mut splat_sq = vec![[0.0f64; 3]; pixels * slots];
-        let mut counters = Counters::default();
-        let scale = pixels as f64;
-        for r in &results {
-            counters.merge(&r.counters);
-            for (k, s) in r.sums.chunks(slots).enumerate() {
-                let (x, y) = (r.x0 + k as u32 % r.w, r.y0 + k as u32 / r.w);
-                for (film, s) in films.iter_mut().zip(s) {
-                    film.pixels[(y * width + x) as usize] = *s;
-                }
-            }
-            for &(pixel, slot, c) in &r.splats {
-                let v = [c.r as f64 * scale, c.g as f64 * scale, c.b as f64 * scale];
-                let i = pixel as usize * slots + slot as usize;
-                for k in 0..3 {
-                    splat_sum[i][k] += v[k];
-                    splat_sq[i][k] += v[k] * v[k];
-                }
-            }
-        }
-        for (slot, film) in films.iter_mut().enumerate() {
-            for (i, p) in film.pixels.iter_mut().enumerate() {
-                let j = i * slots + slot;
-                let splat = PixelSums::from_sums(splat_sum[j], splat_sq[j], paths);
-                *p = p.plus_independent(&splat);
-            }
-        }
-        let film = films.remove(0);
-        let wall = start.elapsed().as_secs_f64();
-        let stats = RenderStats::new(
-            "Bdpt",
-            (width, height),
-            budget,
-            seed,
-            wall,
-            paths,
-            &counters,
-            &["connection", "splat"],
+            },
         );
-        let mut outliers: Vec<Outlier> = results
+        let mut films = out.films;
+        let film = films.remove(0);
+        let pixels = width as u64 * height as u64;
+        let mut stats = RenderStats::new(
+            "Bdpt",
+            &film,
+            out.spp,
+            seed,
+            schedule.elapsed(),
+            pixels * out.spp as u64,
+            &out.counters,
+            &["connection", "splat"],
+            if spec.independent {
+                PixelVariance::Independent
+            } else {
+                PixelVariance::NotAnEstimate(format!(
+                    "the {} sampler's camera subpaths are correlated (s²/n overestimates the \
+                     variance of the mean)",
+                    cfg.sampler.name()
+                ))
+            },
+        );
+        let mut outliers: Vec<Outlier> = out
+            .extras
             .iter()
             .flat_map(|r| r.outliers.iter().cloned())
             .collect();
         if let Some(factor) = cfg.outliers {
-            outliers.extend(bdpt.splat_outliers(scene, seed, budget.spp, &results, &film, factor));
+            outliers.extend(bdpt.splat_outliers(scene, seed, out.spp, &out.extras, &film, factor));
         }
         let mut per_strategy: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
         for o in &outliers {
             *per_strategy.entry((o.s, o.t)).or_default() += 1;
         }
-        let mut stats = stats;
         stats.outliers = per_strategy
             .into_iter()
             .map(|((s, t), n)| (format!("s{s}t{t}"), n))

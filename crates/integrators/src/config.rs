@@ -338,6 +338,13 @@ impl TryFrom<PathConfigRaw> for PathConfig {
     fn try_from(r: PathConfigRaw) -> Result<Self, String> {
         check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
         Router::check(r.paths.as_deref(), &r.layers)?;
+        if !r.shadows && matches!(r.strategy, Strategy::BsdfOnly | Strategy::Uniform) {
+            return Err(format!(
+                "shadows: false switches off the visibility test of next-event estimation, which \
+                 strategy {:?} does not do (no light sampling); use it with Mis or LightOnly",
+                r.strategy
+            ));
+        }
         Ok(PathConfig {
             max_bounces: r.max_bounces,
             min_bounces: r.min_bounces,

@@ -2,6 +2,11 @@
 //! algorithm (Welford 1962; Chan, Golub & LeVeque 1983 for the merge), so that millions of samples
 //! neither drift nor lose the variance to cancellation, and every image comes with its own variance
 //! image.
+//!
+//! A pixel's samples are whatever the integrator makes independent and identically distributed:
+//! a camera path for path tracing, the whole sample pass (every contribution any path of pass k
+//! made to the pixel, splats included) for light tracing and BDPT. Parts shared by all of a pixel's
+//! samples — a photon map — add their own variance (`shared_var`), estimated separately.
 
 /// The running statistics of one pixel's samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -10,6 +15,9 @@ pub struct PixelSums {
     /// Σ (xᵢ − mean)², per channel.
     pub m2: [f64; 3],
     pub count: u64,
+    /// Variance of the mean contributed by what all samples share (Jensen's photon maps, estimated
+    /// across independent photon groups), added to s²/n.
+    pub shared_var: [f64; 3],
 }
 
 impl PixelSums {
@@ -23,38 +31,6 @@ impl PixelSums {
             self.mean[c] += delta * inv_n;
             self.m2[c] += delta * (v[c] - self.mean[c]);
         }
-    }
-
-    /// Statistics of `count` samples given their sums Σx and Σx² (for estimators such as light
-    /// tracing whose samples are mostly zero and are summed sparsely).
-    pub fn from_sums(sum: [f64; 3], sum_sq: [f64; 3], count: u64) -> PixelSums {
-        if count == 0 {
-            return PixelSums::default();
-        }
-        let n = count as f64;
-        let mean = sum.map(|s| s / n);
-        let mut m2 = [0.0; 3];
-        for c in 0..3 {
-            m2[c] = (sum_sq[c] - n * mean[c] * mean[c]).max(0.0);
-        }
-        PixelSums { mean, m2, count }
-    }
-
-    /// The sum of this pixel estimate and an independent one (a light-tracing part over other
-    /// samples): means add, variances of the means add; the count stays this one's.
-    pub fn plus_independent(&self, other: &PixelSums) -> PixelSums {
-        let (a, b) = (self.variance_of_mean(), other.variance_of_mean());
-        let n = self.count as f64;
-        let mut out = *self;
-        for c in 0..3 {
-            out.mean[c] += other.mean[c];
-            out.m2[c] = if self.count >= 2 {
-                (a[c] + b[c]) * n * (n - 1.0)
-            } else {
-                0.0
-            };
-        }
-        out
     }
 
     /// Combines the statistics of two disjoint sets of samples (Chan et al. 1983, eq. 2.1).
@@ -79,14 +55,18 @@ impl PixelSums {
     }
 
     /// Estimated variance of the mean: s²/n with s² the unbiased sample variance (0 with fewer than
-    /// two samples). Its square root is the standard error used by z-tests.
+    /// two samples), plus the shared part. Its square root is the standard error used by z-tests.
     #[inline]
     pub fn variance_of_mean(&self) -> [f64; 3] {
         if self.count < 2 {
-            return [0.0; 3];
+            return self.shared_var;
         }
         let n = self.count as f64;
-        self.m2.map(|m2| m2 / ((n - 1.0) * n))
+        let mut v = self.shared_var;
+        for c in 0..3 {
+            v[c] += self.m2[c] / ((n - 1.0) * n);
+        }
+        v
     }
 }
 
@@ -96,6 +76,11 @@ pub struct Film {
     pub width: u32,
     pub height: u32,
     pub pixels: Vec<PixelSums>,
+    /// Standard error of the image-wide average ([`Film::average`]) from the spread of the
+    /// averages of independent sample passes (and photon groups), which holds however correlated
+    /// the pixels are (a light path splats into many); `None` where the passes are not independent
+    /// (stratified and low-discrepancy samplers, progressive photon mapping) or fewer than two.
+    pub image_se: Option<[f64; 3]>,
 }
 
 impl Film {
@@ -104,6 +89,7 @@ impl Film {
             width,
             height,
             pixels: vec![PixelSums::default(); width as usize * height as usize],
+            image_se: None,
         }
     }
 
@@ -121,20 +107,17 @@ impl Film {
         self.pixels[i].variance_of_mean()
     }
 
-    /// Image-wide average of the pixel means, and its standard error (from the per-pixel variances,
-    /// pixels being independent).
-    pub fn average(&self) -> ([f64; 3], [f64; 3]) {
+    /// Image-wide average of the pixel means.
+    pub fn average(&self) -> [f64; 3] {
         let n = self.pixel_count() as f64;
         let mut mean = [0.0; 3];
-        let mut var = [0.0; 3];
         for p in &self.pixels {
-            let (m, v) = (p.mean(), p.variance_of_mean());
+            let m = p.mean();
             for c in 0..3 {
                 mean[c] += m[c] / n;
-                var[c] += v[c] / (n * n);
             }
         }
-        (mean, var.map(f64::sqrt))
+        mean
     }
 }
 

@@ -11,46 +11,35 @@ mod config;
 mod film;
 pub mod light;
 mod nee;
+mod passes;
 pub mod path;
 pub mod paths;
 pub mod photon;
 mod render;
 mod roulette;
+mod sink;
 
 pub use config::{BdptConfig, IntegratorConfig, LightConfig, Mis, Strategy};
 pub use film::{Film, PixelSums};
+pub use passes::Budget;
 pub use photon::config::{
     Gather, Indirect, Length, PhotonMapConfig, ProgressiveConfig, RadiusUpdate,
 };
 pub use photon::map::Kernel;
-pub use render::{Budget, Counters, RenderOutput, RenderStats};
+pub use render::{Counters, PixelLimit, PixelVariance, RenderOutput, RenderStats};
+pub use sink::Sink;
 
-use lightlab_core::Progress;
+use lightlab_core::{NoProgress, Progress};
 use lightlab_scene::Scene;
+use std::time::Instant;
 
 /// A rendering algorithm, configured and ready to run.
 pub trait Integrator: Send + Sync {
-    /// Renders `scene` within `budget`. Random numbers depend only on `seed` and what is being
-    /// sampled, so the result is bit-identical for any thread count.
-    fn render(
-        &self,
-        scene: &Scene,
-        budget: &Budget,
-        seed: u64,
-        progress: &dyn Progress,
-    ) -> RenderOutput;
-
-    /// Whether the image improves pass by pass from one state (progressive photon mapping), so
-    /// that [`Integrator::render_passes`] is the way to give it more time; otherwise independent
-    /// renders can simply be merged.
-    fn progressive(&self) -> bool {
-        false
-    }
-
-    /// Renders like [`Integrator::render`], calling `on_pass(samples_done, film)` with the image
-    /// so far whenever the integrator has one — after every pass for progressive photon mapping,
-    /// so that a convergence curve or an equal-time run comes from one render; `on_pass`
-    /// returning false stops there. The default reports the final image only.
+    /// Renders `scene` pass after pass until `budget` is spent, calling `on_pass(samples_done,
+    /// film)` with the image so far after every pass; `on_pass` returning false stops there.
+    /// Random numbers depend only on `seed` and what is being sampled, so the result is
+    /// bit-identical for any thread count, and a render stopped after N samples per pixel (by
+    /// the clock or by `on_pass`) is the render of `Budget::Samples(N)`.
     fn render_passes(
         &self,
         scene: &Scene,
@@ -58,9 +47,70 @@ pub trait Integrator: Send + Sync {
         seed: u64,
         progress: &dyn Progress,
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
+    ) -> RenderOutput;
+
+    /// Whether the sampler must know the number of samples before the first one (`Stratified`,
+    /// `LatinHypercube`), so that a time budget cannot simply continue the sequence.
+    fn needs_sample_count(&self) -> bool {
+        false
+    }
+
+    /// Whether the integrator, as configured, can render `scene` (an error says why not).
+    fn check_scene(&self, _scene: &Scene) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Renders `scene` within `budget`. A time budget continues the sample sequence until the
+    /// time is spent (the same estimator as the sample budget it reaches); with a sampler that
+    /// needs its sample count up front, a calibrated pilot (renders of 1, 2, 4, … samples per
+    /// pixel with another seed, until one takes 2 % of the budget or all 4 %) measures the time
+    /// per sample, and the render is `Budget::Samples(N)` with the N that fills the rest of the
+    /// budget. The pilot's time counts in `wall_seconds` (and is reported as `pilot_seconds`).
+    fn render(
+        &self,
+        scene: &Scene,
+        budget: &Budget,
+        seed: u64,
+        progress: &dyn Progress,
     ) -> RenderOutput {
-        let out = self.render(scene, budget, seed, progress);
-        on_pass(budget.spp, &out.film);
-        out
+        match *budget {
+            Budget::Seconds(seconds) if self.needs_sample_count() => {
+                let start = Instant::now();
+                let mut spp = 1u32;
+                let per_sample = loop {
+                    let t0 = Instant::now();
+                    self.render_passes(
+                        scene,
+                        &Budget::Samples(spp),
+                        seed ^ PILOT_SEED,
+                        &NoProgress,
+                        &mut |_, _| true,
+                    );
+                    let dt = t0.elapsed().as_secs_f64();
+                    if dt >= 0.02 * seconds
+                        || start.elapsed().as_secs_f64() >= 0.04 * seconds
+                        || spp >= 1 << 20
+                    {
+                        break dt / spp as f64;
+                    }
+                    spp *= 2;
+                };
+                let pilot = start.elapsed().as_secs_f64();
+                let n = ((seconds - pilot) / per_sample.max(1e-12))
+                    .round()
+                    .clamp(1.0, u32::MAX as f64) as u32;
+                let mut out =
+                    self.render_passes(scene, &Budget::Samples(n), seed, progress, &mut |_, _| {
+                        true
+                    });
+                out.stats.wall_seconds = start.elapsed().as_secs_f64();
+                out.stats.pilot_seconds = pilot;
+                out
+            }
+            _ => self.render_passes(scene, budget, seed, progress, &mut |_, _| true),
+        }
     }
 }
+
+/// Seed offset of the pilot renders of a time budget.
+const PILOT_SEED: u64 = 0x7069_6c6f_7421;

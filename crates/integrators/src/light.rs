@@ -3,13 +3,15 @@
 //! can scatter toward the camera — the emission point itself and each non-specular surface vertex —
 //! is connected to the lens and splatted into the pixel that connection lands on.
 //!
-//! Estimator. N = spp × pixels light paths; a connection from vertex x with throughput β adds
-//! c = β · f(x, wo → camera) · |cos θ_x| · We / pdf_w to its pixel (pdf_w: the camera's density of
-//! the direction, see `Camera::sample_wi`), and pixel j's estimate is (P / N) Σ c with P the pixel
-//! count, which is what the camera's normalisation of We over the whole film asks for. The per-pixel
-//! variance treats each light path as one sample of every pixel (zero where it lands nowhere); two
-//! splats of one path into the same pixel are counted as if from different paths, a slight
-//! overestimate of the variance.
+//! Estimator. N = spp × P light paths (P the pixel count); a connection from vertex x with
+//! throughput β adds c = β · f(x, wo → camera) · |cos θ_x| · We / pdf_w to its pixel (pdf_w: the
+//! camera's density of the direction, see `Camera::sample_wi`), and pixel j's estimate is
+//! (P / N) Σ c, which is what the camera's normalisation of We over the whole film asks for.
+//! Sample index i of the render is the P light paths iP … iP + P − 1: its sample of pixel j is
+//! Y_ij = Σ c over every connection of those paths that lands in j, so the estimate is the mean
+//! of Y_ij over i, and the Y_ij of different i are independent and identically distributed — the
+//! film's s²/n is the variance of the pixel mean, with every path's splats into a pixel summed
+//! before squaring (see `passes`).
 //!
 //! What it cannot see: paths whose last scattering vertex before the eye is specular (`…SE`, a
 //! mirror or glass seen directly), and emitters at infinity seen directly. Those terms are missing
@@ -17,41 +19,29 @@
 //!
 //! Sample dimensions per light path: light choice (1), position (2), direction (2), then per surface
 //! vertex: lens (2), BSDF lobe (1), BSDF direction (2), Russian roulette (1). Paths are keyed by
-//! (seed, path index), processed in fixed chunks whose splats are added in chunk order, so the image
-//! is bit-identical on any number of threads.
+//! (seed, path index), and the driver adds splats in a fixed order, so the image is bit-identical
+//! on any number of threads.
 
 use crate::config::LightConfig;
-use crate::film::{Film, PixelSums};
+use crate::passes::{PassSpec, Schedule, run_passes};
 use crate::paths::{PathClass, Router};
-use crate::render::{Counters, named};
+use crate::render::{Counters, PixelVariance, named};
 use crate::roulette::survives;
-use crate::{Budget, Integrator, RenderOutput, RenderStats};
+use crate::sink::Sink;
+use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_geometry::{spawn_ray, spawn_ray_to_point};
 use lightlab_materials::SurfaceBsdf;
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::{Light, Scene};
-use rayon::prelude::*;
-use std::time::Instant;
 
 /// Technique number for the non-finite counter.
 const CONNECTION: usize = 0;
-/// Light paths per work item: each chunk's splats are summed separately and added in chunk order.
-const CHUNK: u64 = 4096;
-/// Chunks run in parallel before their splats are added to the image (bounds the memory).
-const CHUNKS_PER_BATCH: u64 = 64;
 
 pub struct LightTracer {
     config: LightConfig,
     router: Router,
-}
-
-/// One contribution to pixel `pixel`, of layer `layer`.
-struct Splat {
-    pixel: u32,
-    layer: u32,
-    value: Rgb,
 }
 
 impl LightTracer {
@@ -71,7 +61,7 @@ impl LightTracer {
         n: glam::Vec3,
         u_lens: Vec2,
         class: &PathClass,
-        splats: &mut Vec<Splat>,
+        sink: &mut Sink,
         counters: &mut Counters,
         value_toward: impl FnOnce(glam::Vec3) -> (Rgb, f32),
     ) {
@@ -99,12 +89,8 @@ impl LightTracer {
             counters.non_finite[CONNECTION] += 1;
             return;
         }
-        let (w, x, y) = (scene.camera.width, cs.raster.x as u32, cs.raster.y as u32);
-        splats.push(Splat {
-            pixel: y.min(scene.camera.height - 1) * w + x.min(w - 1),
-            layer: layer as u32,
-            value: c,
-        });
+        let pixel = sink.pixel_at(cs.raster);
+        sink.splat_routed(pixel, layer, c);
     }
 
     /// Traces light path `index` and records its camera connections.
@@ -113,7 +99,7 @@ impl LightTracer {
         scene: &Scene,
         seed: u64,
         index: u64,
-        splats: &mut Vec<Splat>,
+        sink: &mut Sink,
         counters: &mut Counters,
     ) {
         let cfg = &self.config;
@@ -145,7 +131,7 @@ impl LightTracer {
                     em.n,
                     u_lens,
                     &PathClass::EMPTY,
-                    splats,
+                    sink,
                     counters,
                     |wi| {
                         (
@@ -198,7 +184,7 @@ impl LightTracer {
                     hit.ng,
                     u_lens,
                     &class,
-                    splats,
+                    sink,
                     counters,
                     |wi| {
                         (
@@ -226,82 +212,49 @@ impl LightTracer {
 }
 
 impl Integrator for LightTracer {
-    fn render(
+    fn render_passes(
         &self,
         scene: &Scene,
         budget: &Budget,
         seed: u64,
         progress: &dyn Progress,
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
-        let start = Instant::now();
         let (width, height) = (scene.camera.width, scene.camera.height);
         let pixels = width as u64 * height as u64;
-        let paths = pixels * budget.spp as u64;
-        let chunks = paths.div_ceil(CHUNK);
-        // Per pixel: the full image, then each layer.
-        let slots = 1 + self.router.layer_count();
-        let mut sum = vec![[0.0f64; 3]; pixels as usize * slots];
-        let mut sum_sq = vec![[0.0f64; 3]; pixels as usize * slots];
-        let mut counters = Counters::default();
-        // Sample k of pixel j is P·c_k (zero where light path k does not land in j).
-        let scale = pixels as f64;
-        progress.start(paths);
-        for batch in (0..chunks).step_by(CHUNKS_PER_BATCH as usize) {
-            let results: Vec<(Vec<Splat>, Counters)> = (batch
-                ..(batch + CHUNKS_PER_BATCH).min(chunks))
-                .into_par_iter()
-                .map(|chunk| {
-                    let mut splats = Vec::new();
-                    let mut c = Counters::default();
-                    let end = ((chunk + 1) * CHUNK).min(paths);
-                    for index in chunk * CHUNK..end {
-                        self.trace(scene, seed, index, &mut splats, &mut c);
-                    }
-                    progress.advance(end - chunk * CHUNK);
-                    (splats, c)
-                })
-                .collect();
-            for (splats, c) in results {
-                counters.merge(&c);
-                for s in splats {
-                    let v = [
-                        s.value.r as f64 * scale,
-                        s.value.g as f64 * scale,
-                        s.value.b as f64 * scale,
-                    ];
-                    let base = s.pixel as usize * slots;
-                    let targets: &[usize] = if slots > 1 {
-                        &[base, base + 1 + s.layer as usize]
-                    } else {
-                        &[base]
-                    };
-                    for &i in targets {
-                        for k in 0..3 {
-                            sum[i][k] += v[k];
-                            sum_sq[i][k] += v[k] * v[k];
-                        }
-                    }
-                }
-            }
-        }
-        let mut films: Vec<Film> = (0..slots).map(|_| Film::new(width, height)).collect();
-        for (slot, film) in films.iter_mut().enumerate() {
-            for (i, p) in film.pixels.iter_mut().enumerate() {
-                let j = i * slots + slot;
-                *p = PixelSums::from_sums(sum[j], sum_sq[j], paths);
-            }
-        }
+        let spec = PassSpec {
+            width,
+            height,
+            slots: 1 + self.router.layer_count(),
+            splats: true,
+            groups: 0,
+            independent: true,
+        };
+        let mut schedule = Schedule::new(*budget, progress, pixels);
+        // The "pixel sample" (x, y, i) is light path iP + (y·width + x): the driver only uses it
+        // to lay out the work.
+        let out = run_passes(
+            &spec,
+            &self.router,
+            &mut schedule,
+            on_pass,
+            |x, y, index, sink, counters, _: &mut ()| {
+                let path = index * pixels + y as u64 * width as u64 + x as u64;
+                self.trace(scene, seed, path, sink, counters);
+            },
+        );
+        let mut films = out.films;
         let film = films.remove(0);
-        let wall = start.elapsed().as_secs_f64();
         let stats = RenderStats::new(
             "Light",
-            (width, height),
-            budget,
+            &film,
+            out.spp,
             seed,
-            wall,
-            paths,
-            &counters,
+            schedule.elapsed(),
+            pixels * out.spp as u64,
+            &out.counters,
             &["camera_connection"],
+            PixelVariance::Independent,
         );
         RenderOutput {
             film,

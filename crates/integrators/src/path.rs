@@ -11,12 +11,13 @@
 //! (1), BSDF direction (2), Russian roulette (1) — consumed whether or not they are used.
 
 use crate::config::{PathConfig, Strategy};
-use crate::film::PixelSums;
 use crate::nee::{emitted, environment_light_pdf, light_pdf_of_hit, sample_direct};
-use crate::paths::{Deposit, PathClass, Router};
-use crate::render::{Counters, named, render_tiles};
+use crate::passes::{PassSpec, Schedule, run_passes};
+use crate::paths::{PathClass, Router};
+use crate::render::{Counters, PixelVariance, named};
 use crate::roulette::survives;
-use crate::{Budget, Integrator, RenderOutput, RenderStats};
+use crate::sink::Sink;
+use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use glam::{Vec2, Vec3};
 use lightlab_core::{INV_2PI, INV_4PI, Progress, Rgb, TransportMode};
 use lightlab_geometry::{NO_LIGHT, spawn_ray};
@@ -74,14 +75,13 @@ impl PathTracer {
         scene: &Scene,
         film: Vec2,
         sampler: &mut S,
-        l: &mut Deposit,
+        l: &mut Sink,
         counters: &mut Counters,
     ) {
         let cfg = &self.config;
         let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX);
         let u_lens = sampler.next_2d();
         let mut ray = scene.camera.generate_ray(film, u_lens);
-        let router = &self.router;
         // Scattering vertices so far, camera first.
         let mut class = PathClass::EMPTY;
         let mut beta = Rgb::WHITE;
@@ -99,7 +99,7 @@ impl PathTracer {
                     let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
                         environment_light_pdf(scene)
                     });
-                    add(l, router, &class, beta * le * w, EMISSION, counters);
+                    add(l, &class, beta * le * w, EMISSION, counters);
                 }
                 break;
             };
@@ -110,7 +110,7 @@ impl PathTracer {
                     let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
                         light_pdf_of_hit(scene, prev_p, &hit)
                     });
-                    add(l, router, &class, beta * le * w, EMISSION, counters);
+                    add(l, &class, beta * le * w, EMISSION, counters);
                 }
             }
             if depth >= max_bounces {
@@ -142,7 +142,7 @@ impl PathTracer {
                 } else {
                     power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
                 };
-                add(l, router, &class, beta * d.value * w, NEXT_EVENT, counters);
+                add(l, &class, beta * d.value * w, NEXT_EVENT, counters);
             }
 
             // Continue the path.
@@ -225,52 +225,67 @@ fn uniform_direction(sb: &SurfaceBsdf, wo: Vec3, u: Vec2) -> Option<Step> {
 /// Adds a contribution of a camera path with scattering vertices `eye` (camera first) unless it is
 /// NaN or infinite, which is counted instead (design.md).
 #[inline]
-fn add(
-    l: &mut Deposit,
-    router: &Router,
-    eye: &PathClass,
-    c: Rgb,
-    technique: usize,
-    counters: &mut Counters,
-) {
+fn add(l: &mut Sink, eye: &PathClass, c: Rgb, technique: usize, counters: &mut Counters) {
     if c.is_finite() {
-        l.add_eye(router, eye, c);
+        l.add_eye(eye, c);
     } else {
         counters.non_finite[technique] += 1;
     }
 }
 
 impl Integrator for PathTracer {
-    fn render(
+    fn render_passes(
         &self,
         scene: &Scene,
         budget: &Budget,
         seed: u64,
         progress: &dyn Progress,
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
+        let spp = match *budget {
+            Budget::Samples(n) => n,
+            Budget::Seconds(_) => 1,
+        };
         self.config.sampler.dispatch(
-            budget.spp,
+            spp,
             RenderWith {
                 tracer: self,
                 scene,
                 budget,
                 seed,
                 progress,
+                on_pass,
             },
         )
+    }
+
+    fn needs_sample_count(&self) -> bool {
+        self.config.sampler.needs_sample_count()
+    }
+
+    fn check_scene(&self, scene: &Scene) -> Result<(), String> {
+        if !self.samples_lights() && scene.lights.iter().any(|l| l.is_delta()) {
+            return Err(format!(
+                "strategy {:?} never samples lights, so it cannot see the scene's point and spot \
+                 lights (no ray hits them): use Mis or LightOnly, or remove those lights",
+                self.config.strategy
+            ));
+        }
+        Ok(())
     }
 }
 
 /// The render loop for the sampler type the configuration names (monomorphised per sampler).
-struct RenderWith<'a> {
+struct RenderWith<'a, 'b> {
     tracer: &'a PathTracer,
     scene: &'a Scene,
     budget: &'a Budget,
     seed: u64,
     progress: &'a dyn Progress,
+    on_pass: &'b mut dyn FnMut(u32, &Film) -> bool,
 }
 
-impl SamplerVisitor for RenderWith<'_> {
+impl SamplerVisitor for RenderWith<'_, '_> {
     type Output = RenderOutput;
 
     fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
@@ -280,44 +295,56 @@ impl SamplerVisitor for RenderWith<'_> {
             budget,
             seed,
             progress,
+            on_pass,
         } = self;
-        let cam = &scene.camera;
-        let (width, height) = (cam.width, cam.height);
-        let (film, layers, counters, wall) = render_tiles(
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let spec = PassSpec {
             width,
             height,
-            tracer.router.layer_count(),
-            progress,
-            |x, y, sums: &mut [PixelSums], counters| {
-                let pixel = (y as u64) * width as u64 + x as u64;
+            slots: 1 + tracer.router.layer_count(),
+            splats: false,
+            groups: 0,
+            independent: tracer.config.sampler.independent(),
+        };
+        let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
+        let out = run_passes(
+            &spec,
+            &tracer.router,
+            &mut schedule,
+            on_pass,
+            |x, y, index, sink, counters, _: &mut ()| {
                 let mut sampler = prototype.clone();
-                let mut l = Deposit::new(&tracer.router);
-                for s in 0..budget.spp {
-                    sampler.start_pixel_sample(seed, pixel, s as u64);
-                    let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                    l.clear();
-                    tracer.li(scene, film, &mut sampler, &mut l, counters);
-                    for (sum, v) in sums.iter_mut().zip(&l.values) {
-                        sum.add([v.r as f64, v.g as f64, v.b as f64]);
-                    }
-                }
+                let pixel = y as u64 * width as u64 + x as u64;
+                sampler.start_pixel_sample(seed, pixel, index);
+                let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                tracer.li(scene, film, &mut sampler, sink, counters);
             },
         );
-        let samples = width as u64 * height as u64 * budget.spp as u64;
+        let mut films = out.films;
+        let film = films.remove(0);
         let stats = RenderStats::new(
             "Path",
-            (width, height),
-            budget,
+            &film,
+            out.spp,
             seed,
-            wall,
-            samples,
-            &counters,
+            schedule.elapsed(),
+            width as u64 * height as u64 * out.spp as u64,
+            &out.counters,
             &["emission", "next_event"],
+            if spec.independent {
+                PixelVariance::Independent
+            } else {
+                PixelVariance::NotAnEstimate(format!(
+                    "the {} sampler's samples are correlated (s²/n overestimates the variance of \
+                     the mean)",
+                    tracer.config.sampler.name()
+                ))
+            },
         );
         RenderOutput {
             film,
             outliers: Vec::new(),
-            layers: named(tracer.router.layer_names(), layers),
+            layers: named(tracer.router.layer_names(), films),
             stats,
         }
     }

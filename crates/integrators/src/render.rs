@@ -1,29 +1,61 @@
-//! What every integrator takes (a budget) and returns (a film with statistics), and the tile loop that
-//! runs a per-pixel estimator over the image on the rayon pool.
+//! What every integrator returns: a film with statistics.
 
-use crate::film::{Film, PixelSums};
-use lightlab_core::Progress;
-use serde::Serialize;
-use std::time::Instant;
+use crate::film::Film;
+use serde::{Deserialize, Serialize};
 
-/// How much work a render may do.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Budget {
-    /// Samples per pixel (camera paths per pixel), ≥ 1.
-    pub spp: u32,
+/// What a film's per-pixel variance is, so that nobody uses it where it does not hold.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum PixelVariance {
+    /// s²/n over independent, identically distributed samples of each pixel (camera paths, or
+    /// whole sample passes where light paths splat): an unbiased estimate of the variance of the
+    /// pixel mean.
+    Independent,
+    /// The camera samples' s²/n plus the spread of the photon-map estimate over `groups`
+    /// independent photon groups (Jensen's photon mapping; the groups share the gather radius, so
+    /// the radius's own randomness is left out — about 1/k of the photon variance at k nearest).
+    CameraAndPhotonGroups { groups: u32 },
+    /// Not the variance of the mean; why.
+    NotAnEstimate(String),
+}
+
+impl PixelVariance {
+    /// Whether the variance estimates the variance of the pixel mean.
+    pub fn is_estimate(&self) -> bool {
+        !matches!(self, PixelVariance::NotAnEstimate(_))
+    }
+}
+
+/// What each pixel's value converges to as the budget grows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PixelLimit {
+    /// The pixel's measurement: radiance integrated over the pixel's box filter (and the lens, and
+    /// everything else sampled), which a reference render estimates too.
+    #[default]
+    PixelIntegral,
+    /// The radiance along one fixed camera path per pixel (`Ppm`: its visible points never
+    /// move), so the pixel's box-filtered value is not reached: against a reference that
+    /// estimates it, the difference stays as aliasing at edges and texture, however many passes.
+    OneCameraPath,
+    /// A photon-map estimate blurred over a radius that never shrinks (`PhotonMap`): more camera
+    /// samples converge to that blurred value, not to the pixel integral.
+    FixedRadiusBlur,
 }
 
 /// Counters gathered while rendering.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RenderStats {
     pub integrator: String,
     pub width: u32,
     pub height: u32,
+    /// Samples per pixel rendered (passes for progressive photon mapping).
     pub spp: u32,
     pub seed: u64,
     pub threads: usize,
     pub wall_seconds: f64,
-    /// Camera paths traced.
+    /// Of `wall_seconds`, the calibration renders a time budget needed with a sampler that must
+    /// know its sample count in advance (see `Integrator::render`).
+    pub pilot_seconds: f64,
+    /// Camera paths traced (light paths for light tracing, subpath pairs for BDPT).
     pub samples: u64,
     /// Rays cast: closest-hit and shadow rays together.
     pub rays: u64,
@@ -37,29 +69,39 @@ pub struct RenderStats {
     pub non_finite: Vec<(String, u64)>,
     /// Logged outliers (and non-finite contributions), by strategy (`Bdpt`'s `outliers` setting).
     pub outliers: Vec<(String, u64)>,
+    /// What the film's variance layer is.
+    pub pixel_variance: PixelVariance,
+    /// What the pixel values converge to.
+    pub pixel_limit: PixelLimit,
+    /// Image-wide average radiance and its standard error (see [`Film::image_se`]).
+    pub image_mean: [f64; 3],
+    pub image_mean_se: Option<[f64; 3]>,
 }
 
 impl RenderStats {
-    /// The statistics of a finished render: `samples` camera (or light) paths in `wall` seconds,
-    /// with the non-finite counters named by `techniques` (the integrator's technique numbers).
+    /// The statistics of a finished render of `film` at `spp` samples per pixel: `samples`
+    /// camera (or light) paths in `wall` seconds, with the non-finite counters named by
+    /// `techniques` (the integrator's technique numbers).
     pub(crate) fn new(
         integrator: &str,
-        (width, height): (u32, u32),
-        budget: &Budget,
+        film: &Film,
+        spp: u32,
         seed: u64,
         wall: f64,
         samples: u64,
         counters: &Counters,
         techniques: &[&str],
+        pixel_variance: PixelVariance,
     ) -> RenderStats {
         RenderStats {
             integrator: integrator.into(),
-            width,
-            height,
-            spp: budget.spp,
+            width: film.width,
+            height: film.height,
+            spp,
             seed,
             threads: rayon::current_num_threads(),
             wall_seconds: wall,
+            pilot_seconds: 0.0,
             samples,
             rays: counters.rays,
             rays_per_second: counters.rays as f64 / wall.max(1e-9),
@@ -72,6 +114,10 @@ impl RenderStats {
                 .zip(counters.non_finite)
                 .map(|(t, n)| (t.to_string(), n))
                 .collect(),
+            pixel_variance,
+            pixel_limit: PixelLimit::PixelIntegral,
+            image_mean: film.average(),
+            image_mean_se: film.image_se,
         }
     }
 
@@ -104,63 +150,6 @@ impl Counters {
             *a += b;
         }
     }
-}
-
-/// Tile edge in pixels: small enough to balance two cores on small images, large enough to amortise
-/// scheduling.
-const TILE: u32 = 16;
-
-/// Runs `pixel(x, y, sums, counters)` for every pixel, tiles in parallel, and returns the film, the
-/// `layers` layer films, the summed counters and the wall time. `sums[0]` is the pixel of the full
-/// image, `sums[1 + l]` its pixel in layer l. Each pixel's samples are summed in sample order by one
-/// thread, so the films are bit-identical whatever the thread count.
-pub(crate) fn render_tiles<F>(
-    width: u32,
-    height: u32,
-    layers: usize,
-    progress: &dyn Progress,
-    pixel: F,
-) -> (Film, Vec<Film>, Counters, f64)
-where
-    F: Fn(u32, u32, &mut [PixelSums], &mut Counters) + Sync,
-{
-    use rayon::prelude::*;
-    let start = Instant::now();
-    let per_pixel = 1 + layers;
-    let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
-        .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    progress.start(width as u64 * height as u64);
-    let done: Vec<(Vec<PixelSums>, Counters)> = tiles
-        .par_iter()
-        .map(|&(x0, y0)| {
-            let (w, h) = (TILE.min(width - x0), TILE.min(height - y0));
-            let mut counters = Counters::default();
-            let mut sums = vec![PixelSums::default(); (w * h) as usize * per_pixel];
-            for y in 0..h {
-                for x in 0..w {
-                    let k = (y * w + x) as usize * per_pixel;
-                    pixel(x0 + x, y0 + y, &mut sums[k..k + per_pixel], &mut counters);
-                }
-            }
-            progress.advance((w * h) as u64);
-            (sums, counters)
-        })
-        .collect();
-    let mut films: Vec<Film> = (0..per_pixel).map(|_| Film::new(width, height)).collect();
-    let mut counters = Counters::default();
-    for (&(x0, y0), (sums, c)) in tiles.iter().zip(&done) {
-        let w = TILE.min(width - x0);
-        for (k, s) in sums.chunks(per_pixel).enumerate() {
-            let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
-            for (film, s) in films.iter_mut().zip(s) {
-                film.pixels[(y * width + x) as usize] = *s;
-            }
-        }
-        counters.merge(c);
-    }
-    let film = films.remove(0);
-    (film, films, counters, start.elapsed().as_secs_f64())
 }
 
 /// Names the layer films.

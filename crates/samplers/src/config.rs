@@ -57,6 +57,23 @@ impl SamplerConfig {
         }
     }
 
+    /// Whether the sampler must know the number of samples per pixel before the first one: its
+    /// strata are laid out for exactly that many (`Stratified`, `LatinHypercube`). The others are
+    /// sequences whose every prefix is as good as a fresh set.
+    pub fn needs_sample_count(&self) -> bool {
+        matches!(
+            self,
+            SamplerConfig::Stratified | SamplerConfig::LatinHypercube
+        )
+    }
+
+    /// Whether the samples of a pixel are independent (only `Independent`): then s²/n over them
+    /// estimates the variance of the pixel mean. Stratified and low-discrepancy samples are
+    /// negatively correlated, and s²/n overestimates it.
+    pub fn independent(&self) -> bool {
+        matches!(self, SamplerConfig::Independent)
+    }
+
     /// Constructs the configured sampler for `spp` samples per pixel and hands it to `visitor`,
     /// so the visitor's code is monomorphised for each sampler type.
     pub fn dispatch<V: SamplerVisitor>(self, spp: u32, visitor: V) -> V::Output {

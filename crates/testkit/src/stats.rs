@@ -45,6 +45,18 @@ pub fn z_critical(alpha: f64) -> f64 {
     -Normal::standard().inverse_cdf(alpha / 2.0)
 }
 
+/// The two-sided critical value t such that P(|T| > t) = `alpha` for Student's t with `dof`
+/// degrees of freedom (for means whose standard error is estimated from few samples).
+pub fn t_critical(alpha: f64, dof: f64) -> f64 {
+    assert!(
+        alpha > 0.0 && alpha < 1.0 && dof > 0.0,
+        "t_critical needs α in (0, 1) and dof > 0"
+    );
+    -statrs::distribution::StudentsT::new(0.0, 1.0, dof)
+        .expect("valid Student t")
+        .inverse_cdf(alpha / 2.0)
+}
+
 /// Mean and standard error s/√n (s with n − 1 in the denominator) of independent samples.
 pub fn mean_and_std_error(samples: &[f64]) -> (f64, f64) {
     assert!(

@@ -10,9 +10,10 @@
 
 use super::map::GatherPoint;
 use crate::nee::{emitted, environment_light_pdf, light_pdf_of_hit, sample_direct};
-use crate::paths::{Deposit, PathClass, Router};
+use crate::paths::PathClass;
 use crate::render::Counters;
 use crate::roulette::survives;
+use crate::sink::Sink;
 use glam::Vec2;
 use lightlab_core::{Rgb, TransportMode};
 use lightlab_geometry::{Hit, NO_LIGHT, spawn_ray};
@@ -71,18 +72,17 @@ impl VisiblePoint {
 }
 
 /// Traces the camera ray through raster position `film`, adds the radiance it estimates on the
-/// way (emission and direct light) to `l` as `router` sends it, and returns the visible point, if
+/// way (emission and direct light) to `l`, by path class, and returns the visible point, if
 /// the path reached one. `sampler` drives the path (lens, BSDF and roulette choices); `lights`
 /// drives next-event estimation, so that progressive photon mapping can keep a path fixed while
 /// its light samples change.
 pub fn walk<S: Sampler, T: Sampler>(
     scene: &Scene,
     cfg: &Walk,
-    router: &Router,
     film: Vec2,
     sampler: &mut S,
     lights: &mut T,
-    l: &mut Deposit,
+    l: &mut Sink,
     counters: &mut Counters,
 ) -> Option<VisiblePoint> {
     let mut ray = scene.camera.generate_ray(film, sampler.next_2d());
@@ -103,7 +103,7 @@ pub fn walk<S: Sampler, T: Sampler>(
                 let w = prev_nee.map_or(1.0, |bsdf_pdf| {
                     power_heuristic(1.0, bsdf_pdf, 1.0, environment_light_pdf(scene))
                 });
-                add(l, router, &class, beta * le * w, counters);
+                add(l, &class, beta * le * w, counters);
             }
             return None;
         };
@@ -114,7 +114,7 @@ pub fn walk<S: Sampler, T: Sampler>(
                 let w = prev_nee.map_or(1.0, |bsdf_pdf| {
                     power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf_of_hit(scene, prev_p, &hit))
                 });
-                add(l, router, &class, beta * le * w, counters);
+                add(l, &class, beta * le * w, counters);
             }
         }
         if depth >= cfg.max_bounces {
@@ -139,13 +139,7 @@ pub fn walk<S: Sampler, T: Sampler>(
             } else {
                 power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
             };
-            add(
-                l,
-                router,
-                &class.push(class_here),
-                beta * d.value * w,
-                counters,
-            );
+            add(l, &class.push(class_here), beta * d.value * w, counters);
         }
         if gathers {
             return Some(VisiblePoint {
@@ -180,9 +174,9 @@ pub fn walk<S: Sampler, T: Sampler>(
 
 /// Adds a contribution of the camera-first class `eye` unless it is not finite (counted).
 #[inline]
-fn add(l: &mut Deposit, router: &Router, eye: &PathClass, c: Rgb, counters: &mut Counters) {
+fn add(l: &mut Sink, eye: &PathClass, c: Rgb, counters: &mut Counters) {
     if c.is_finite() {
-        l.add_eye(router, eye, c);
+        l.add_eye(eye, c);
     } else {
         counters.non_finite[CAMERA] += 1;
     }

@@ -5,14 +5,27 @@
 //!
 //!   L(x, ωo) ≈ 1/(π r²) · Σ_p K(d_p² / r²) · f(x, ωo, ωp) · Φ_p · |ωp·n_s| / |ωp·n_g|,
 //!
-//! where K is normalised so that ∫ K over the unit disk is π (the estimate is unbiased where the
-//! photon density is constant), f is evaluated without the cosine (the photon density already is
-//! flux per unit area), and the last factor converts flux per geometric area into the
-//! shading-normal cosine the BSDF expects (it is 1 without shading normals). Only photons whose
-//! surface faces the same way as the gather point's are used (Mitsuba issue #145: photons on the
-//! far side of a thin wall), and the BSDF's own side test rejects photons from behind.
+//! where K is normalised so that ∫ K over the unit disk is π, f is evaluated without the cosine
+//! (the photon density already is flux per unit area), and the last factor converts flux per
+//! geometric area into the shading-normal cosine the BSDF expects (it is 1 without shading
+//! normals). Only photons whose surface faces the same way as the gather point's are used
+//! (Mitsuba issue #145: photons on the far side of a thin wall), and the BSDF's own side test
+//! rejects photons from behind.
+//!
+//! Bias. With a fixed radius the estimate is unbiased where the photon density is constant over
+//! the disk. With the k nearest photons the radius r_k is the k-th photon's distance, and the
+//! k − 1 photons inside it are what is summed: given r_k they are uniform in the disk (for a
+//! constant density), and (k − 1)/(π r_k²) is the unbiased estimate of the density (Silverman
+//! 1986, §5.2; counting the k-th photon too, as Jensen 2001 eq. 7.6 does, overestimates by
+//! k/(k − 1): +2 % at k = 50, +11 % at k = 10, however many photons are traced). Elsewhere the
+//! density varies over the disk and the estimate is biased toward its average there; that blur is
+//! what vanishes only as the radius shrinks — more photons for a fixed k, or progressive radii.
+//!
+//! Photon groups. A map's photon paths are split into `GROUPS` contiguous ranges of path index;
+//! each photon knows its group, so an estimator can also sum each group's share and estimate its
+//! own variance from the spread of the independent group estimates.
 
-use super::trace::Photon;
+use super::trace::{Photon, Traced};
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use lightlab_core::{INV_PI, Rgb, TransportMode};
@@ -65,19 +78,39 @@ pub struct GatherPoint {
 
 pub struct PhotonMap {
     photons: Vec<Photon>,
+    /// Index of the first photon of each group (photons are in path order, groups are ranges of
+    /// paths), `GROUPS` entries.
+    group_starts: Vec<u32>,
     /// `None` when there are no photons (kiddo cannot build an empty tree).
     tree: Option<ImmutableKdTree<f32, 3>>,
 }
 
 impl PhotonMap {
-    pub fn new(photons: Vec<Photon>) -> PhotonMap {
+    pub fn new(traced: Traced) -> PhotonMap {
+        let Traced {
+            photons,
+            group_starts,
+        } = traced;
         let points: Vec<[f32; 3]> = photons.iter().map(|p| p.p.to_array()).collect();
         let tree = if points.is_empty() {
             None
         } else {
             ImmutableKdTree::new_from_slice(&points).ok()
         };
-        PhotonMap { photons, tree }
+        PhotonMap {
+            photons,
+            group_starts,
+            tree,
+        }
+    }
+
+    /// The group of photon `i`.
+    #[inline]
+    pub fn group(&self, i: u32) -> usize {
+        self.group_starts
+            .partition_point(|&start| start <= i)
+            .max(1)
+            - 1
     }
 
     pub fn photons(&self) -> &[Photon] {
@@ -98,15 +131,15 @@ impl PhotonMap {
             + self.photons.len() * (std::mem::size_of::<[f32; 3]>() + std::mem::size_of::<u32>())
     }
 
-    /// Calls `visit(photon, d²)` for every photon within `radius_sq` of `p` (in no particular but
-    /// deterministic order).
+    /// Calls `visit(photon, index, d²)` for every photon within `radius_sq` of `p` (in no
+    /// particular but deterministic order).
     #[inline]
-    pub fn within(&self, p: Vec3, radius_sq: f32, mut visit: impl FnMut(&Photon, f32)) {
+    pub fn within(&self, p: Vec3, radius_sq: f32, mut visit: impl FnMut(&Photon, u32, f32)) {
         let Some(tree) = &self.tree else { return };
         tree.query(&p.to_array())
             .within::<SquaredEuclidean<f32>>(radius_sq)
             .unsorted()
-            .visit(|it| visit(&self.photons[it.item as usize], it.distance));
+            .visit(|it| visit(&self.photons[it.item as usize], it.item, it.distance));
     }
 
     /// The k nearest photons within `max_radius_sq`, nearest first, as (index, d²).
@@ -123,32 +156,36 @@ impl PhotonMap {
             .collect()
     }
 
-    /// The density estimate of reflected radiance at `g`, photon by photon: `sink(photon, c)` with
-    /// c = K(d²/r²) · f · Φ · (shading factor) / (π r²), so that the estimate is the sum of the c of
-    /// the photons the caller keeps. Returns r². The kNN radius is set by all photons, kept or
-    /// not, so the photons kept are a thinning of a disk of known area.
+    /// The density estimate of reflected radiance at `g`, photon by photon: `sink(photon, group,
+    /// c)` with c = K(d²/r²) · f · Φ · (shading factor) / (π r²), so that the estimate is the sum of
+    /// the c of the photons the caller keeps. Returns r². With `Nearest`, r is the k-th photon's
+    /// distance and that photon is not summed (the estimate would be k/(k − 1) too large; see the
+    /// module docs), unless fewer than k lie within the cap, which is then a fixed radius. The
+    /// radius is set by all photons, kept or not, so the photons kept are a thinning of a disk of
+    /// known area.
     pub fn estimate(
         &self,
         g: &GatherPoint,
         search: Search,
         kernel: Kernel,
-        mut sink: impl FnMut(&Photon, Rgb),
+        mut sink: impl FnMut(&Photon, usize, Rgb),
     ) -> f32 {
         match search {
             Search::Radius { radius_sq } => {
                 let norm = INV_PI / radius_sq;
-                self.within(g.p, radius_sq, |ph, d2| {
+                self.within(g.p, radius_sq, |ph, i, d2| {
                     sink(
                         ph,
+                        self.group(i),
                         contribution(g, ph) * (kernel.weight(d2 / radius_sq) * norm),
                     );
                 });
                 radius_sq
             }
             Search::Nearest { k, max_radius_sq } => {
-                let found = self.nearest(g.p, k, max_radius_sq);
+                let mut found = self.nearest(g.p, k, max_radius_sq);
                 let radius_sq = if found.len() == k {
-                    found.last().map_or(max_radius_sq, |&(_, d2)| d2)
+                    found.pop().map_or(max_radius_sq, |(_, d2)| d2)
                 } else {
                     max_radius_sq
                 };
@@ -158,6 +195,7 @@ impl PhotonMap {
                         let ph = &self.photons[i as usize];
                         sink(
                             ph,
+                            self.group(i),
                             contribution(g, ph) * (kernel.weight(d2 / radius_sq) * norm),
                         );
                     }
@@ -212,12 +250,12 @@ mod tests {
         let photons: Vec<Photon> = (0..5000)
             .map(|_| photon_at(Vec3::new(s.next_1d(), s.next_1d(), s.next_1d() * 0.1)))
             .collect();
-        let map = PhotonMap::new(photons.clone());
+        let map = PhotonMap::new(Traced::ungrouped(photons.clone()));
         for q in 0..200 {
             let p = Vec3::new(s.next_1d(), s.next_1d(), 0.05);
             let r = 0.01 + 0.1 * (q as f32 / 200.0);
             let mut from_tree: Vec<usize> = Vec::new();
-            map.within(p, r * r, |ph, d2| {
+            map.within(p, r * r, |ph, _, d2| {
                 assert!((d2 - ph.p.distance_squared(p)).abs() < 1e-6);
                 from_tree.push(photons.iter().position(|x| x.p == ph.p).unwrap());
             });

@@ -13,19 +13,31 @@
 //! |             | (y not `S`)    | final gather: BSDF rays from x through specular       |
 //! |             |                | surfaces to y, global map (all photons) at y          |
 //!
-//! plus emission seen through the camera's specular chain. The estimate is consistent, not
-//! unbiased: density estimation blurs over the gather radius. The per-pixel variance in the film
-//! is over camera samples for one photon map, so it leaves out the photon map's own noise (which
-//! is correlated across pixels); measure that across seeds, as experiments do.
+//! plus emission seen through the camera's specular chain. The estimate is biased: density
+//! estimation blurs over the gather radius, and with a fixed photon count that blur never goes
+//! away, however many camera samples are taken — the method is consistent only as the photon
+//! count grows and the radius (or k/N) shrinks with it (Jensen 2001, §7.2; progressive photon
+//! mapping, `Ppm`/`Sppm`, makes that schedule explicit).
+//!
+//! Variance. The film's variance of a pixel is the camera samples' s²/n (their spread for one
+//! pair of photon maps) plus the photon maps' own variance, which every camera sample shares:
+//! each map's paths form `GROUPS` independent groups, the pixel sums each group's share of its
+//! photon estimates, and the spread of the group estimates Q_g = G · share_g is the variance of
+//! their mean (s²(Q)/G; `passes::group_variance`). The groups share the k-nearest radius, so the
+//! radius's own randomness (about 1/k of the photon variance) is not in it.
+//!
+//! A time budget builds the maps once (their time counts) and adds camera samples until the time
+//! is spent.
 
 use super::camera::{self, VisiblePoint, Walk};
 use super::config::{Indirect, PhotonMapConfig};
 use super::map::{GatherPoint, PhotonMap, Search};
-use super::trace::{Keep, PHOTON_FLUX, PhotonTracing, trace_photons};
-use crate::film::PixelSums;
-use crate::paths::{Deposit, PathClass, Router};
-use crate::render::{Counters, named, render_tiles};
-use crate::{Budget, Integrator, RenderOutput, RenderStats};
+use super::trace::{GROUPS, Keep, PHOTON_FLUX, PhotonTracing, trace_photons};
+use crate::passes::{PassSpec, Schedule, run_passes};
+use crate::paths::{PathClass, Router};
+use crate::render::{Counters, PixelVariance, named};
+use crate::sink::Sink;
+use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_geometry::spawn_ray;
@@ -68,25 +80,25 @@ impl PhotonMapper {
         maps: &Maps,
         vp: &VisiblePoint,
         sampler: &mut Independent,
-        l: &mut Deposit,
+        l: &mut Sink,
         counters: &mut Counters,
     ) {
         let c = &self.config;
         let max = c.max_bounces.unwrap_or(u32::MAX);
         let (lo, hi) = vp.photon_bounces(c.min_bounces, max);
         if let Some(map) = &maps.caustic {
-            map.estimate(&vp.gather, maps.caustic_search, c.kernel, |ph, v| {
+            map.estimate(&vp.gather, maps.caustic_search, c.kernel, |ph, g, v| {
                 if (lo..=hi).contains(&ph.bounces()) {
-                    self.deposit(l, &vp.class_with(&ph.class), vp.beta * v, counters);
+                    deposit(l, g, &vp.class_with(&ph.class), vp.beta * v, counters);
                 }
             });
         }
         match (c.indirect, &maps.global) {
             (Indirect::Direct, Some(map)) => {
                 let lo = lo.max(2);
-                map.estimate(&vp.gather, maps.search, c.kernel, |ph, v| {
+                map.estimate(&vp.gather, maps.search, c.kernel, |ph, g, v| {
                     if !ph.is_caustic() && (lo..=hi).contains(&ph.bounces()) {
-                        self.deposit(l, &vp.class_with(&ph.class), vp.beta * v, counters);
+                        deposit(l, g, &vp.class_with(&ph.class), vp.beta * v, counters);
                     }
                 });
             }
@@ -94,15 +106,6 @@ impl PhotonMapper {
                 self.final_gather(scene, map, maps.search, vp, rays, sampler, l, counters);
             }
             _ => {}
-        }
-    }
-
-    #[inline]
-    fn deposit(&self, l: &mut Deposit, class: &PathClass, c: Rgb, counters: &mut Counters) {
-        if c.is_finite() {
-            l.add(&self.router, class, c);
-        } else {
-            counters.non_finite[PHOTON_FLUX] += 1;
         }
     }
 
@@ -117,7 +120,7 @@ impl PhotonMapper {
         vp: &VisiblePoint,
         rays: u32,
         sampler: &mut Independent,
-        l: &mut Deposit,
+        l: &mut Sink,
         counters: &mut Counters,
     ) {
         let c = &self.config;
@@ -162,9 +165,9 @@ impl PhotonMapper {
                         eye,
                     };
                     let (lo, hi) = y.photon_bounces(c.min_bounces, max);
-                    map.estimate(&y.gather, search, c.kernel, |ph, v| {
+                    map.estimate(&y.gather, search, c.kernel, |ph, g, v| {
                         if (lo..=hi).contains(&ph.bounces()) {
-                            self.deposit(l, &y.class_with(&ph.class), beta * v, counters);
+                            deposit(l, g, &y.class_with(&ph.class), beta * v, counters);
                         }
                     });
                     break;
@@ -185,6 +188,16 @@ impl PhotonMapper {
     }
 }
 
+/// Adds a photon's contribution (of photon group `group`) unless it is not finite (counted).
+#[inline]
+fn deposit(l: &mut Sink, group: usize, class: &PathClass, c: Rgb, counters: &mut Counters) {
+    if c.is_finite() {
+        l.add_photon(group, class, c);
+    } else {
+        counters.non_finite[PHOTON_FLUX] += 1;
+    }
+}
+
 /// The two maps and how each is searched.
 struct Maps {
     global: Option<PhotonMap>,
@@ -194,15 +207,17 @@ struct Maps {
 }
 
 impl Integrator for PhotonMapper {
-    fn render(
+    fn render_passes(
         &self,
         scene: &Scene,
         budget: &Budget,
         seed: u64,
         progress: &dyn Progress,
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
         let c = &self.config;
-        let start = std::time::Instant::now();
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
         let max = c.max_bounces.unwrap_or(u32::MAX);
         let mut counters = Counters::default();
         let tracing = |keep| PhotonTracing {
@@ -236,55 +251,59 @@ impl Integrator for PhotonMapper {
             search: c.gather.search(scene.radius),
             caustic_search: c.caustic_gather.search(scene.radius),
         };
-        let photon_seconds = start.elapsed().as_secs_f64();
         let walk = self.walk();
-        let width = scene.camera.width;
         let router = &self.router;
-        let (film, layers, camera_counters, wall) = render_tiles(
+        let spec = PassSpec {
             width,
-            scene.camera.height,
-            router.layer_count(),
-            progress,
-            |x, y, sums: &mut [PixelSums], counters| {
+            height,
+            slots: 1 + router.layer_count(),
+            splats: false,
+            groups: GROUPS,
+            independent: true,
+        };
+        let out = run_passes(
+            &spec,
+            router,
+            &mut schedule,
+            on_pass,
+            |x, y, index, sink, counters, _: &mut ()| {
                 let pixel = y as u64 * width as u64 + x as u64;
-                let mut l = Deposit::new(router);
-                for s in 0..budget.spp as u64 {
-                    let mut sampler = Independent::new();
-                    sampler.start_pixel_sample(seed, pixel, s);
-                    let mut lights = Independent::new();
-                    lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, s);
-                    let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                    l.clear();
-                    let vp = camera::walk(
-                        scene,
-                        &walk,
-                        router,
-                        film,
-                        &mut sampler,
-                        &mut lights,
-                        &mut l,
-                        counters,
-                    );
-                    if let Some(vp) = &vp {
-                        self.at_visible_point(scene, &maps, vp, &mut sampler, &mut l, counters);
-                    }
-                    for (sum, v) in sums.iter_mut().zip(&l.values) {
-                        sum.add([v.r as f64, v.g as f64, v.b as f64]);
-                    }
+                let mut sampler = Independent::new();
+                sampler.start_pixel_sample(seed, pixel, index);
+                let mut lights = Independent::new();
+                lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, index);
+                let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                let vp = camera::walk(
+                    scene,
+                    &walk,
+                    film,
+                    &mut sampler,
+                    &mut lights,
+                    sink,
+                    counters,
+                );
+                if let Some(vp) = &vp {
+                    self.at_visible_point(scene, &maps, vp, &mut sampler, sink, counters);
                 }
             },
         );
-        counters.merge(&camera_counters);
+        counters.merge(&out.counters);
+        let mut films = out.films;
+        let film = films.remove(0);
         let mut stats = RenderStats::new(
             "PhotonMap",
-            (width, scene.camera.height),
-            budget,
+            &film,
+            out.spp,
             seed,
-            wall + photon_seconds,
-            width as u64 * scene.camera.height as u64 * budget.spp as u64,
+            schedule.elapsed(),
+            width as u64 * height as u64 * out.spp as u64,
             &counters,
             &["camera", "photon"],
+            PixelVariance::CameraAndPhotonGroups {
+                groups: GROUPS as u32,
+            },
         );
+        stats.pixel_limit = crate::render::PixelLimit::FixedRadiusBlur;
         stats.photons = c.photons * maps.global.is_some() as u64
             + c.caustic_photons * maps.caustic.is_some() as u64;
         stats.photons_stored = maps.global.as_ref().map_or(0, |m| m.len() as u64)
@@ -292,7 +311,7 @@ impl Integrator for PhotonMapper {
         RenderOutput {
             film,
             outliers: Vec::new(),
-            layers: named(router.layer_names(), layers),
+            layers: named(router.layer_names(), films),
             stats,
         }
     }

@@ -19,25 +19,33 @@
 //! Zwicker predict MSE ∝ i^(−α) asymptotically where variance dominates, and the best rate,
 //! i^(−2/3), at α = 2/3.
 //!
-//! The film's per-pixel variance is the spread of the per-pass estimates (the pass's direct light
-//! plus its photons at the pass's radius). For `Global` that is the variance of the mean up to the
-//! shrinking radius; for `Local` it is only an indication.
+//! What it converges to. `Sppm` converges to the pixel's measurement (the radiance integrated over
+//! the pixel's box filter and the lens). `Ppm` keeps one camera path per pixel, so it converges to
+//! the radiance along that path — a point sample of the pixel, not its box-filtered value — and
+//! against a reference of the pixel integral the difference at edges and texture never vanishes.
+//!
+//! The film's per-pixel "variance" is the spread of the per-pass estimates (the pass's direct light
+//! plus its photons at the pass's radius) over n. It is not the variance of the pixel mean: the
+//! passes are not identically distributed (the radius shrinks, so variance grows and bias falls
+//! pass by pass), and under `Local` they are not independent (each radius depends on the photons
+//! before). Experiments measure SPPM's variance across independent trials instead.
 
 use super::camera::{self, Walk};
 use super::config::{ProgressiveConfig, RadiusUpdate};
 use super::grid::HashGrid;
 use super::map::{Kernel, PhotonMap};
-use super::trace::{Keep, PHOTON_FLUX, Photon, PhotonTracing, trace_photons};
+use super::trace::{Keep, PHOTON_FLUX, Photon, PhotonTracing, Traced, trace_photons};
 use crate::film::{Film, PixelSums};
-use crate::paths::{Deposit, Router};
-use crate::render::{Counters, named};
+use crate::passes::Schedule;
+use crate::paths::Router;
+use crate::render::{Counters, PixelLimit, PixelVariance, named};
+use crate::sink::Sink;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{INV_PI, Progress, Rgb};
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
 use rayon::prelude::*;
-use std::time::Instant;
 
 /// Seed offset of the next-event-estimation stream.
 const LIGHT_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
@@ -87,8 +95,8 @@ impl Progressive {
         }
     }
 
-    /// Renders up to `budget.spp` passes, calling `on_pass(passes_done, film)` after each and
-    /// stopping early when it returns false.
+    /// Renders passes until `budget` is spent, calling `on_pass(passes_done, film)` after each
+    /// and stopping early when it returns false.
     fn run(
         &self,
         scene: &Scene,
@@ -100,7 +108,7 @@ impl Progressive {
         let c = &self.config;
         let router = &self.router;
         let slots = 1 + router.layer_count();
-        let start = Instant::now();
+        let mut schedule = Schedule::new(*budget, progress, 1);
         let (width, height) = (scene.camera.width, scene.camera.height);
         let max = c.max_bounces.unwrap_or(u32::MAX);
         let walk = Walk {
@@ -129,10 +137,10 @@ impl Progressive {
         let mut counters = Counters::default();
         let mut photons_stored = 0u64;
         let mut global_radius_sq = r1 * r1;
-        progress.start(budget.spp as u64);
         let mut films: Vec<Film> = (0..slots).map(|_| Film::new(width, height)).collect();
         let mut passes = 0;
-        for pass in 0..budget.spp {
+        while schedule.next_pass(passes, 1).is_some() {
+            let pass = passes;
             let photons = trace_photons(
                 scene,
                 seed,
@@ -140,11 +148,12 @@ impl Progressive {
                 c.photons_per_pass,
                 tracing,
                 &mut counters,
-            );
+            )
+            .photons;
             photons_stored += photons.len() as u64;
             // One radius for every query: the hash grid is faster (BENCHMARKS.md, "Photon maps").
             let map = match c.update {
-                RadiusUpdate::Local => Index::Tree(PhotonMap::new(photons)),
+                RadiusUpdate::Local => Index::Tree(PhotonMap::new(Traced::ungrouped(photons))),
                 RadiusUpdate::Global => {
                     Index::Grid(HashGrid::new(&photons, global_radius_sq.sqrt()))
                 }
@@ -158,8 +167,8 @@ impl Progressive {
                 .enumerate()
                 .map(|(y, row)| {
                     let mut counters = Counters::default();
-                    let mut direct = Deposit::new(router);
-                    let mut flux = Deposit::new(router);
+                    let mut direct = Sink::new(router, (width, height), slots, 0);
+                    let mut flux = Sink::new(router, (width, height), slots, 0);
                     for (x, px) in row.iter_mut().enumerate() {
                         let pixel = y as u64 * width as u64 + x as u64;
                         let mut sampler = Independent::new();
@@ -172,7 +181,6 @@ impl Progressive {
                         let vp = camera::walk(
                             scene,
                             &walk,
-                            router,
                             film,
                             &mut sampler,
                             &mut lights,
@@ -186,15 +194,7 @@ impl Progressive {
                         let m = match &vp {
                             Some(vp) => {
                                 let (lo, hi) = vp.photon_bounces(c.min_bounces, max);
-                                gather(
-                                    &map,
-                                    vp,
-                                    radius_sq,
-                                    c.kernel,
-                                    (lo.max(2), hi),
-                                    router,
-                                    &mut flux,
-                                )
+                                gather(&map, vp, radius_sq, c.kernel, (lo.max(2), hi), &mut flux)
                             }
                             None => 0,
                         };
@@ -262,25 +262,32 @@ impl Progressive {
                 }
             }
             passes = i as u32;
-            progress.advance(1);
+            schedule.advance(1);
             if !on_pass(passes, &films[0]) {
                 break;
             }
         }
-        let wall = start.elapsed().as_secs_f64();
+        let film = films.remove(0);
         let mut stats = RenderStats::new(
             self.name(),
-            (width, height),
-            &Budget { spp: passes },
+            &film,
+            passes,
             seed,
-            wall,
+            schedule.elapsed(),
             width as u64 * height as u64 * passes as u64,
             &counters,
             &["camera", "photon"],
+            PixelVariance::NotAnEstimate(
+                "per-pass estimates at a shrinking radius are not identically distributed (and \
+                 under Local radii not independent): measure the variance across trials"
+                    .into(),
+            ),
         );
+        if self.variant == Variant::Ppm {
+            stats.pixel_limit = PixelLimit::OneCameraPath;
+        }
         stats.photons = c.photons_per_pass * passes as u64;
         stats.photons_stored = photons_stored;
-        let film = films.remove(0);
         RenderOutput {
             film,
             outliers: Vec::new(),
@@ -306,7 +313,10 @@ impl Index {
     #[inline]
     fn within(&self, p: glam::Vec3, radius_sq: f32, visit: impl FnMut(&Photon, f32)) {
         match self {
-            Index::Tree(map) => map.within(p, radius_sq, visit),
+            Index::Tree(map) => {
+                let mut visit = visit;
+                map.within(p, radius_sq, |ph, _, d2| visit(ph, d2))
+            }
             Index::Grid(grid) => grid.within(p, visit),
         }
     }
@@ -320,8 +330,7 @@ fn gather(
     radius_sq: f32,
     kernel: Kernel,
     bounces: (u32, u32),
-    router: &Router,
-    flux: &mut Deposit,
+    flux: &mut Sink,
 ) -> u32 {
     let mut m = 0u32;
     map.within(vp.gather.p, radius_sq, |ph, d2| {
@@ -330,7 +339,6 @@ fn gather(
             if !c.is_black() {
                 m += 1;
                 flux.add(
-                    router,
                     &vp.class_with(&ph.class),
                     vp.beta * c * kernel.weight(d2 / radius_sq),
                 );
@@ -341,20 +349,6 @@ fn gather(
 }
 
 impl Integrator for Progressive {
-    fn render(
-        &self,
-        scene: &Scene,
-        budget: &Budget,
-        seed: u64,
-        progress: &dyn Progress,
-    ) -> RenderOutput {
-        self.run(scene, budget, seed, progress, &mut |_, _| true)
-    }
-
-    fn progressive(&self) -> bool {
-        true
-    }
-
     fn render_passes(
         &self,
         scene: &Scene,

@@ -131,6 +131,28 @@ pub fn photon_sampler(seed: u64, index: u64) -> Independent {
     sampler
 }
 
+/// Photon groups of a photon map: its paths split into this many contiguous ranges of path index,
+/// whose estimates are independent and average to the map's.
+pub const GROUPS: usize = 16;
+
+/// The photons of a tracing pass, in path order, and where each photon group starts.
+pub struct Traced {
+    pub photons: Vec<Photon>,
+    /// Index of the first photon of each of the `GROUPS` groups (paths j with
+    /// ⌊j·GROUPS/count⌋ = g form group g).
+    pub group_starts: Vec<u32>,
+}
+
+impl Traced {
+    /// Photons not traced here, all in group 0.
+    pub fn ungrouped(photons: Vec<Photon>) -> Traced {
+        Traced {
+            photons,
+            group_starts: vec![0],
+        }
+    }
+}
+
 /// Traces photon paths `first .. first + count` and returns their photons in path order, each
 /// path's flux divided by `count`.
 pub fn trace_photons(
@@ -140,25 +162,48 @@ pub fn trace_photons(
     count: u64,
     how: PhotonTracing,
     counters: &mut Counters,
-) -> Vec<Photon> {
+) -> Traced {
     let scale = 1.0 / count as f32;
-    let chunks: Vec<(Vec<Photon>, Counters)> = (0..count.div_ceil(CHUNK))
+    let group_of = |j: u64| (j as u128 * GROUPS as u128 / count as u128) as usize;
+    // Per chunk: its photons, the (group, local photon index) where each group starts in it, and
+    // its counters.
+    type Chunk = (Vec<Photon>, Vec<(usize, usize)>, Counters);
+    let chunks: Vec<Chunk> = (0..count.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
             let mut photons = Vec::new();
+            let mut starts = Vec::new();
             let mut c = Counters::default();
             for j in chunk * CHUNK..((chunk + 1) * CHUNK).min(count) {
+                if j == 0 || group_of(j) != group_of(j - 1) {
+                    starts.push((group_of(j), photons.len()));
+                }
                 trace_one(scene, seed, first + j, scale, how, &mut photons, &mut c);
             }
-            (photons, c)
+            (photons, starts, c)
         })
         .collect();
-    let mut photons = Vec::with_capacity(chunks.iter().map(|(p, _)| p.len()).sum());
-    for (p, c) in chunks {
+    let mut photons = Vec::with_capacity(chunks.iter().map(|(p, _, _)| p.len()).sum());
+    let mut group_starts = vec![u32::MAX; GROUPS];
+    for (p, starts, c) in chunks {
+        for (g, local) in starts {
+            group_starts[g] = (photons.len() + local) as u32;
+        }
         photons.extend_from_slice(&p);
         counters.merge(&c);
     }
-    photons
+    // A group without paths (fewer paths than groups) is empty: it starts where the next does.
+    let mut next = photons.len() as u32;
+    for start in group_starts.iter_mut().rev() {
+        if *start == u32::MAX {
+            *start = next;
+        }
+        next = *start;
+    }
+    Traced {
+        photons,
+        group_starts,
+    }
 }
 
 /// Technique number of non-finite photon fluxes in [`Counters::non_finite`].

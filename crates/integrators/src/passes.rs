@@ -1,0 +1,489 @@
+//! The render driver: the image is rendered in *passes* over the sample index — pass after pass,
+//! every pixel's samples i₀ … i₁ − 1 — until the budget is spent, a number of samples or a time.
+//!
+//! Why passes. (1) A time budget is then the same estimator as a sample budget: a render stopped
+//! by the clock after N samples per pixel is bit for bit the render of N samples (every pixel adds
+//! its samples in index order, and splats of sample index i are summed in a fixed order), so
+//! progressive samplers (Sobol', Halton) keep their stratification and an equal-time comparison
+//! compares the estimators themselves. (2) Honest variances: for light tracing and BDPT a light
+//! path splats into any pixel, so one path's contributions to a pixel are correlated; the driver
+//! makes the whole of sample index i — every path traced for it, splats included — one sample of
+//! each pixel, and sample indices are independent and identically distributed, so s²/n over them
+//! is the variance of the pixel mean (and the spread of per-index image averages the standard
+//! error of the image average, however correlated pixels are).
+//!
+//! Work items are 16 × 16 tiles (of one sample index when the integrator splats); their results
+//! are merged in tile order, so the image is bit-identical on any number of threads.
+
+use crate::film::{Film, PixelSums};
+use crate::paths::Router;
+use crate::render::Counters;
+use crate::sink::Sink;
+use lightlab_core::Progress;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// How much work a render may do.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Budget {
+    /// Samples per pixel (camera paths per pixel; light paths per pixel for light tracing; passes
+    /// for progressive photon mapping), ≥ 1.
+    Samples(u32),
+    /// Wall-clock seconds: samples (or passes) continue until the time is spent, the render
+    /// stopping at the pass boundary nearest the budget (at least one sample).
+    Seconds(f64),
+}
+
+impl Budget {
+    /// Checks the budget: at least one sample, or a positive finite time.
+    pub fn check(&self) -> Result<(), String> {
+        match *self {
+            Budget::Samples(0) => Err("a sample budget must be ≥ 1 sample per pixel".into()),
+            Budget::Seconds(s) if !(s > 0.0 && s.is_finite()) => Err(format!(
+                "a time budget must be a finite number of seconds > 0, got {s}"
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Decides how many samples each pass renders, keeps the progress bar, and says when to stop.
+pub(crate) struct Schedule<'a> {
+    budget: Budget,
+    start: Instant,
+    /// When the first pass started (setup such as photon tracing comes before it).
+    first_pass: Option<Instant>,
+    progress: &'a dyn Progress,
+    /// Permille of a time budget reported so far.
+    reported: AtomicU64,
+}
+
+impl<'a> Schedule<'a> {
+    /// A schedule whose clock starts now; `work_per_sample` is what one sample index of every
+    /// pixel advances the progress bar by (pixels, or 1 for a pass-counting integrator).
+    pub fn new(budget: Budget, progress: &'a dyn Progress, work_per_sample: u64) -> Schedule<'a> {
+        match budget {
+            Budget::Samples(n) => progress.start(n as u64 * work_per_sample),
+            Budget::Seconds(_) => progress.start(1000),
+        }
+        Schedule {
+            budget,
+            start: Instant::now(),
+            first_pass: None,
+            progress,
+            reported: AtomicU64::new(0),
+        }
+    }
+
+    /// Seconds since the schedule started.
+    pub fn elapsed(&self) -> f64 {
+        self.start.elapsed().as_secs_f64()
+    }
+
+    /// The number of samples of the next pass, `done` samples having been rendered, at most
+    /// `preferred`; `None` when the budget is spent. Under a time budget the passes halve the
+    /// remaining time, at the rate measured so far, and the render stops when the remaining time
+    /// is less than half a one-sample pass, so that it ends within half a sample of the budget.
+    pub fn next_pass(&mut self, done: u32, preferred: u32) -> Option<u32> {
+        let preferred = preferred.max(1);
+        let n = match self.budget {
+            Budget::Samples(n) => (done < n).then(|| preferred.min(n - done))?,
+            Budget::Seconds(seconds) => {
+                let Some(first) = self.first_pass else {
+                    self.first_pass = Some(Instant::now());
+                    return Some(1);
+                };
+                let per_sample = first.elapsed().as_secs_f64() / done.max(1) as f64;
+                let remaining = seconds - self.elapsed();
+                if done == u32::MAX || remaining < 0.5 * per_sample {
+                    return None;
+                }
+                let fit = (0.5 * remaining / per_sample.max(1e-12)).floor();
+                (fit.min(done as f64).max(1.0) as u32)
+                    .min(preferred)
+                    .min(u32::MAX - done)
+            }
+        };
+        self.first_pass.get_or_insert_with(Instant::now);
+        Some(n)
+    }
+
+    /// Reports `work` units done (pixel samples, or passes; as `work_per_sample` counts them).
+    pub fn advance(&self, work: u64) {
+        match self.budget {
+            Budget::Samples(_) => self.progress.advance(work),
+            Budget::Seconds(seconds) => {
+                let permille = ((self.elapsed() / seconds).min(1.0) * 1000.0) as u64;
+                let before = self.reported.fetch_max(permille, Ordering::Relaxed);
+                if permille > before {
+                    self.progress.advance(permille - before);
+                }
+            }
+        }
+    }
+}
+
+/// What the driver needs to know about an estimator.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PassSpec {
+    pub width: u32,
+    pub height: u32,
+    /// Slots per pixel: the full image, the router's layers, any of the integrator's own.
+    pub slots: usize,
+    /// Whether samples splat into other pixels; each work item is then one sample index.
+    pub splats: bool,
+    /// Independent photon groups whose spread is each pixel's shared variance (0: none).
+    pub groups: usize,
+    /// Whether sample indices are independent and identically distributed (an independent
+    /// sampler), so that the film's s²/n and the image's standard error are estimates.
+    pub independent: bool,
+}
+
+/// What a render produced: one film per slot, the counters summed over work items, the samples
+/// per pixel done, and each work item's own results in a fixed order.
+pub(crate) struct PassOutput<E> {
+    pub films: Vec<Film>,
+    pub counters: Counters,
+    pub spp: u32,
+    pub extras: Vec<E>,
+}
+
+/// Tile edge in pixels: small enough to balance two cores on small images, large enough to amortise
+/// scheduling.
+const TILE: u32 = 16;
+/// With splats, sample indices rendered concurrently are raised until there are this many work
+/// items per pass (small images)…
+const MIN_ITEMS: usize = 64;
+/// …as long as their per-pixel buffers hold at most this many pixel slots.
+const MAX_BUFFERED: usize = 1 << 22;
+
+/// Renders pass after pass as `schedule` decides, calling `sample(x, y, index, sink, counters,
+/// extra)` for every pixel sample, and `on_pass(samples done, full-image film)` after every pass
+/// (false stops the render).
+pub(crate) fn run_passes<E, F>(
+    spec: &PassSpec,
+    router: &Router,
+    schedule: &mut Schedule,
+    on_pass: &mut dyn FnMut(u32, &Film) -> bool,
+    sample: F,
+) -> PassOutput<E>
+where
+    E: Default + Send,
+    F: Fn(u32, u32, u64, &mut Sink, &mut Counters, &mut E) + Sync,
+{
+    let (width, height) = (spec.width, spec.height);
+    let pixels = width as usize * height as usize;
+    let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
+        .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let mut state = State {
+        films: (0..spec.slots).map(|_| Film::new(width, height)).collect(),
+        groups: vec![[0.0; 3]; pixels * spec.slots * spec.groups],
+        passes: vec![PixelSums::default(); spec.slots],
+        counters: Counters::default(),
+        extras: Vec::new(),
+    };
+    let preferred = if spec.splats {
+        let by_items = MIN_ITEMS.div_ceil(tiles.len());
+        let by_memory = (MAX_BUFFERED / (pixels * spec.slots).max(1)).max(1);
+        by_items.min(by_memory) as u32
+    } else {
+        u32::MAX
+    };
+    let mut done = 0u32;
+    while let Some(n) = schedule.next_pass(done, preferred) {
+        let indices = done as u64..done as u64 + n as u64;
+        if spec.splats {
+            splat_pass(spec, router, schedule, &tiles, indices, &mut state, &sample);
+        } else {
+            pixel_pass(spec, router, schedule, &tiles, indices, &mut state, &sample);
+        }
+        done += n;
+        state.finish(spec);
+        if !on_pass(done, &state.films[0]) {
+            break;
+        }
+    }
+    PassOutput {
+        films: state.films,
+        counters: state.counters,
+        spp: done,
+        extras: state.extras,
+    }
+}
+
+/// The statistics accumulated so far.
+struct State<E> {
+    films: Vec<Film>,
+    /// Per pixel, slot and photon group: Σ over the pixel's samples of the group's contributions.
+    groups: Vec<[f64; 3]>,
+    /// Per slot: statistics of the image-wide average of each sample index.
+    passes: Vec<PixelSums>,
+    counters: Counters,
+    extras: Vec<E>,
+}
+
+impl<E> State<E> {
+    /// Sets each film's shared variance and image standard error from what has been summed.
+    fn finish(&mut self, spec: &PassSpec) {
+        let g = spec.groups;
+        let pixels = self.films[0].pixels.len();
+        // Image-wide Σ of each slot and group.
+        let mut image_groups = vec![[0.0f64; 3]; spec.slots * g];
+        if g > 1 {
+            for (slot, film) in self.films.iter_mut().enumerate() {
+                for (i, p) in film.pixels.iter_mut().enumerate() {
+                    let sums = &self.groups[(i * spec.slots + slot) * g..][..g];
+                    for (acc, s) in image_groups[slot * g..][..g].iter_mut().zip(sums) {
+                        for c in 0..3 {
+                            acc[c] += s[c];
+                        }
+                    }
+                    p.shared_var = group_variance(sums, p.count as f64);
+                }
+            }
+        }
+        for (slot, film) in self.films.iter_mut().enumerate() {
+            let passes = &self.passes[slot];
+            film.image_se = (spec.independent && passes.count >= 2).then(|| {
+                let mut var = passes.variance_of_mean();
+                if g > 1 {
+                    let shared = group_variance(
+                        &image_groups[slot * g..][..g],
+                        (passes.count as usize * pixels) as f64,
+                    );
+                    for c in 0..3 {
+                        var[c] += shared[c];
+                    }
+                }
+                var.map(f64::sqrt)
+            });
+        }
+    }
+}
+
+/// Variance of a mean over `n` samples from the photon-group sums Σ_g: the groups' estimates
+/// Q_g = G·Σ_g/n are independent and average to the mean, so s²(Q)/G is the variance of that
+/// mean's photon part.
+fn group_variance(sums: &[[f64; 3]], n: f64) -> [f64; 3] {
+    let g = sums.len() as f64;
+    if sums.len() < 2 || !(n > 0.0) {
+        return [0.0; 3];
+    }
+    let mut out = [0.0; 3];
+    for c in 0..3 {
+        let q = |s: &[f64; 3]| g * s[c] / n;
+        let mean = sums.iter().map(q).sum::<f64>() / g;
+        let s2 = sums.iter().map(|s| (q(s) - mean).powi(2)).sum::<f64>() / (g - 1.0);
+        out[c] = s2 / g;
+    }
+    out
+}
+
+fn to_f64(c: lightlab_core::Rgb) -> [f64; 3] {
+    [c.r as f64, c.g as f64, c.b as f64]
+}
+
+fn tile_size(spec: &PassSpec, (x0, y0): (u32, u32)) -> (u32, u32) {
+    (TILE.min(spec.width - x0), TILE.min(spec.height - y0))
+}
+
+/// A pass of an estimator that does not splat: each tile renders all the pass's samples of its
+/// pixels and adds each to the pixel's statistics.
+fn pixel_pass<E, F>(
+    spec: &PassSpec,
+    router: &Router,
+    schedule: &Schedule,
+    tiles: &[(u32, u32)],
+    indices: std::ops::Range<u64>,
+    state: &mut State<E>,
+    sample: &F,
+) where
+    E: Default + Send,
+    F: Fn(u32, u32, u64, &mut Sink, &mut Counters, &mut E) + Sync,
+{
+    struct TileOut<E> {
+        sums: Vec<PixelSums>,
+        groups: Vec<[f64; 3]>,
+        /// Per sample index and slot: Σ over the tile's pixels.
+        image: Vec<[f64; 3]>,
+        counters: Counters,
+        extra: E,
+    }
+    let (slots, g) = (spec.slots, spec.groups);
+    let n = (indices.end - indices.start) as usize;
+    let width = spec.width;
+    let films = &state.films;
+    let groups = &state.groups;
+    let out: Vec<TileOut<E>> = tiles
+        .par_iter()
+        .map(|&(x0, y0)| {
+            let (w, h) = tile_size(spec, (x0, y0));
+            let mut t = TileOut {
+                sums: Vec::with_capacity((w * h) as usize * slots),
+                groups: Vec::with_capacity((w * h) as usize * slots * g),
+                image: vec![[0.0; 3]; n * slots],
+                counters: Counters::default(),
+                extra: E::default(),
+            };
+            let mut sink = Sink::new(router, (spec.width, spec.height), slots, g);
+            for y in y0..y0 + h {
+                for x in x0..x0 + w {
+                    let i = (y * width + x) as usize;
+                    let base = t.sums.len();
+                    t.sums.extend(films.iter().map(|f| f.pixels[i]));
+                    let gbase = t.groups.len();
+                    t.groups
+                        .extend_from_slice(&groups[i * slots * g..(i + 1) * slots * g]);
+                    sink.running = t.sums[base];
+                    for (k, index) in indices.clone().enumerate() {
+                        sink.clear();
+                        sample(x, y, index, &mut sink, &mut t.counters, &mut t.extra);
+                        for s in 0..slots {
+                            let v = to_f64(sink.values[s]);
+                            t.sums[base + s].add(v);
+                            let acc = &mut t.image[k * slots + s];
+                            for c in 0..3 {
+                                acc[c] += v[c];
+                            }
+                        }
+                        for (acc, v) in t.groups[gbase..].iter_mut().zip(&sink.group_values) {
+                            let v = to_f64(*v);
+                            for c in 0..3 {
+                                acc[c] += v[c];
+                            }
+                        }
+                    }
+                }
+            }
+            schedule.advance((w * h) as u64 * n as u64);
+            t
+        })
+        .collect();
+    let mut image = vec![[0.0f64; 3]; n * slots];
+    for (&(x0, y0), t) in tiles.iter().zip(out) {
+        let (w, h) = tile_size(spec, (x0, y0));
+        for k in 0..(w * h) as usize {
+            let i = ((y0 + k as u32 / w) * width + x0 + k as u32 % w) as usize;
+            for (s, film) in state.films.iter_mut().enumerate() {
+                film.pixels[i] = t.sums[k * slots + s];
+            }
+            let stride = slots * g;
+            state.groups[i * stride..(i + 1) * stride]
+                .copy_from_slice(&t.groups[k * stride..(k + 1) * stride]);
+        }
+        for (acc, v) in image.iter_mut().zip(&t.image) {
+            for c in 0..3 {
+                acc[c] += v[c];
+            }
+        }
+        state.counters.merge(&t.counters);
+        state.extras.push(t.extra);
+    }
+    add_image_averages(state, &image, slots);
+}
+
+/// Adds the image-wide average of each sample index (`image`: per index and slot, Σ over pixels)
+/// to the per-slot statistics.
+fn add_image_averages<E>(state: &mut State<E>, image: &[[f64; 3]], slots: usize) {
+    let pixels = state.films[0].pixels.len() as f64;
+    for per_index in image.chunks(slots) {
+        for (stats, sum) in state.passes.iter_mut().zip(per_index) {
+            stats.add(sum.map(|s| s / pixels));
+        }
+    }
+}
+
+/// A pass of an estimator that splats: every (sample index, tile) is a work item; each sample
+/// index's contributions — to the samples' own pixels and splatted — are summed into one buffer
+/// in tile order, and each pixel adds its buffer value as one sample.
+fn splat_pass<E, F>(
+    spec: &PassSpec,
+    router: &Router,
+    schedule: &Schedule,
+    tiles: &[(u32, u32)],
+    indices: std::ops::Range<u64>,
+    state: &mut State<E>,
+    sample: &F,
+) where
+    E: Default + Send,
+    F: Fn(u32, u32, u64, &mut Sink, &mut Counters, &mut E) + Sync,
+{
+    struct ItemOut<E> {
+        own: Vec<lightlab_core::Rgb>,
+        splats: Vec<crate::sink::Splat>,
+        counters: Counters,
+        extra: E,
+    }
+    let slots = spec.slots;
+    let width = spec.width;
+    let films = &state.films;
+    let items: Vec<(u64, (u32, u32))> = indices
+        .clone()
+        .flat_map(|index| tiles.iter().map(move |&t| (index, t)))
+        .collect();
+    let out: Vec<ItemOut<E>> = items
+        .par_iter()
+        .map(|&(index, (x0, y0))| {
+            let (w, h) = tile_size(spec, (x0, y0));
+            let mut sink = Sink::new(router, (spec.width, spec.height), slots, 0);
+            let mut item = ItemOut {
+                own: Vec::with_capacity((w * h) as usize * slots),
+                splats: Vec::new(),
+                counters: Counters::default(),
+                extra: E::default(),
+            };
+            for y in y0..y0 + h {
+                for x in x0..x0 + w {
+                    sink.clear();
+                    sink.running = films[0].pixels[(y * width + x) as usize];
+                    sample(x, y, index, &mut sink, &mut item.counters, &mut item.extra);
+                    item.own.extend_from_slice(&sink.values);
+                }
+            }
+            item.splats = std::mem::take(&mut sink.splats);
+            schedule.advance((w * h) as u64);
+            item
+        })
+        .collect();
+    let pixels = films[0].pixels.len();
+    let mut buffer = vec![[0.0f64; 3]; pixels * slots];
+    let mut image = vec![[0.0f64; 3]; slots];
+    let mut out = out.into_iter();
+    for _ in indices {
+        buffer.fill([0.0; 3]);
+        for &(x0, y0) in tiles {
+            let item = out.next().expect("one result per work item");
+            let (w, _) = tile_size(spec, (x0, y0));
+            for (k, own) in item.own.chunks(slots).enumerate() {
+                let i = ((y0 + k as u32 / w) * width + x0 + k as u32 % w) as usize;
+                for (acc, v) in buffer[i * slots..(i + 1) * slots].iter_mut().zip(own) {
+                    let v = to_f64(*v);
+                    for c in 0..3 {
+                        acc[c] += v[c];
+                    }
+                }
+            }
+            for s in &item.splats {
+                let acc = &mut buffer[s.pixel as usize * slots + s.slot as usize];
+                let v = to_f64(s.value);
+                for c in 0..3 {
+                    acc[c] += v[c];
+                }
+            }
+            state.counters.merge(&item.counters);
+            state.extras.push(item.extra);
+        }
+        image.fill([0.0; 3]);
+        for (i, values) in buffer.chunks(slots).enumerate() {
+            for (s, v) in values.iter().enumerate() {
+                state.films[s].pixels[i].add(*v);
+                for c in 0..3 {
+                    image[s][c] += v[c];
+                }
+            }
+        }
+        add_image_averages(state, &image, slots);
+    }
+}
