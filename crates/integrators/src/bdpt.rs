@@ -297,7 +297,7 @@ impl Bdpt {
             let Some(hit) = scene.intersect(&ray) else {
                 // Camera paths that escape end on the environment, if there is one.
                 if mode == TransportMode::Radiance
-                    && let Some(&env) = scene.environment_lights().first()
+                    && let Some(env) = scene.environment_light()
                 {
                     let mut v = Vertex::new(Kind::Light { light: env }, ray.o + ray.d, beta);
                     v.class = path.last().expect("a walk starts from a vertex").class;

@@ -76,14 +76,12 @@ pub(crate) fn light_pdf_of_hit(scene: &Scene, from: Vec3, hit: &Hit) -> f32 {
         * scene.shapes()[hit.shape as usize].pdf_solid_angle(from, hit.p, hit.ng)
 }
 
-/// The same for a ray that escapes to the (constant) environment lights.
+/// The same for a ray that escapes to the (constant) environment light.
 #[inline]
 pub(crate) fn environment_light_pdf(scene: &Scene) -> f32 {
     scene
-        .environment_lights()
-        .iter()
-        .map(|&i| scene.light_pmf(i) * INV_4PI)
-        .sum()
+        .environment_light()
+        .map_or(0.0, |i| scene.light_pmf(i) * INV_4PI)
 }
 
 /// Whether the segment from `hit` to the light sample is blocked.

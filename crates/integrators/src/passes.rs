@@ -179,7 +179,8 @@ where
         .collect();
     let mut state = State {
         films: (0..spec.slots).map(|_| Film::new(width, height)).collect(),
-        groups: vec![[0.0; 3]; pixels * spec.slots * spec.groups],
+        groups: vec![[0.0; 3]; pixels * spec.slots * group_stride(spec.groups)],
+        image_groups: vec![[0.0; 3]; spec.slots * group_stride(spec.groups)],
         passes: vec![PixelSums::default(); spec.slots],
         counters: Counters::default(),
         extras: Vec::new(),
@@ -216,8 +217,10 @@ where
 /// The statistics accumulated so far.
 struct State<E> {
     films: Vec<Film>,
-    /// Per pixel, slot and photon group: Σ over the pixel's samples of the group's contributions.
+    /// Per pixel and slot, the photon-group statistics (`accumulate_groups`) of its samples.
     groups: Vec<[f64; 3]>,
+    /// Per slot, the photon-group statistics of the image average of each sample index.
+    image_groups: Vec<[f64; 3]>,
     /// Per slot: statistics of the image-wide average of each sample index.
     passes: Vec<PixelSums>,
     counters: Counters,
@@ -227,20 +230,17 @@ struct State<E> {
 impl<E> State<E> {
     /// Sets each film's shared variance and image standard error from what has been summed.
     fn finish(&mut self, spec: &PassSpec) {
-        let g = spec.groups;
-        let pixels = self.films[0].pixels.len();
-        // Image-wide Σ of each slot and group.
-        let mut image_groups = vec![[0.0f64; 3]; spec.slots * g];
+        let (g, stride) = (spec.groups, group_stride(spec.groups));
         if g > 1 {
             for (slot, film) in self.films.iter_mut().enumerate() {
                 for (i, p) in film.pixels.iter_mut().enumerate() {
-                    let sums = &self.groups[(i * spec.slots + slot) * g..][..g];
-                    for (acc, s) in image_groups[slot * g..][..g].iter_mut().zip(sums) {
-                        for c in 0..3 {
-                            acc[c] += s[c];
-                        }
+                    let acc = &self.groups[(i * spec.slots + slot) * stride..][..stride];
+                    let camera = PixelSums {
+                        shared_var: [0.0; 3],
+                        ..*p
                     }
-                    p.shared_var = group_variance(sums, p.count as f64);
+                    .variance_of_mean();
+                    p.shared_var = shared_variance(acc, p.count, camera);
                 }
             }
         }
@@ -249,10 +249,8 @@ impl<E> State<E> {
             film.image_se = (spec.independent && passes.count >= 2).then(|| {
                 let mut var = passes.variance_of_mean();
                 if g > 1 {
-                    let shared = group_variance(
-                        &image_groups[slot * g..][..g],
-                        (passes.count as usize * pixels) as f64,
-                    );
+                    let acc = &self.image_groups[slot * stride..][..stride];
+                    let shared = shared_variance(acc, passes.count, var);
                     for c in 0..3 {
                         var[c] += shared[c];
                     }
@@ -263,20 +261,50 @@ impl<E> State<E> {
     }
 }
 
-/// Variance of a mean over `n` samples from the photon-group sums Σ_g: the groups' estimates
-/// Q_g = G·Σ_g/n are independent and average to the mean, so s²(Q)/G is the variance of that
-/// mean's photon part.
-fn group_variance(sums: &[[f64; 3]], n: f64) -> [f64; 3] {
-    let g = sums.len() as f64;
-    if sums.len() < 2 || !(n > 0.0) {
+/// Entries per slot of photon-group statistics: the G group sums and W.
+fn group_stride(groups: usize) -> usize {
+    if groups > 0 { groups + 1 } else { 0 }
+}
+
+/// Adds one sample's photon-group shares `shares` (G of them) to `acc`: Σ share_g per group, and
+/// W += Σ_g (q_g − q̄)² with q_g = G·share_g, the sample's own estimate from group g alone.
+fn accumulate_groups(acc: &mut [[f64; 3]], shares: impl Iterator<Item = [f64; 3]> + Clone) {
+    let g = (acc.len() - 1) as f64;
+    let (mut sum, mut sum_sq) = ([0.0f64; 3], [0.0f64; 3]);
+    for (a, v) in acc.iter_mut().zip(shares) {
+        for c in 0..3 {
+            a[c] += v[c];
+            sum[c] += v[c];
+            sum_sq[c] += v[c] * v[c];
+        }
+    }
+    let w = acc.last_mut().expect("W entry");
+    for c in 0..3 {
+        w[c] += g * g * sum_sq[c] - g * sum[c] * sum[c];
+    }
+}
+
+/// The photon maps' share of the variance of a pixel mean over `n` camera samples, from its group
+/// statistics `acc` (see `accumulate_groups`) — a two-way crossed random-effects design: sample k
+/// with group g estimates Y_kg = A_k + q_kg, and the pixel mean is the mean of all Y_kg, whose
+/// variance is σ²_camera/n + σ²_group/G + σ²_interaction/(nG). The camera samples' s²/n (already in
+/// the film, `camera`) estimates σ²_camera/n + σ²_interaction/(nG); the spread of the group
+/// estimates Q_g = G·Σ_k share_kg / n estimates σ²_group + σ²_interaction/n; the interaction's mean
+/// square is (W − n(G − 1)s²(Q)) / ((n − 1)(G − 1)) (Searle, Casella & McCulloch 1992, §4.3), counted
+/// once. The result is kept ≥ −`camera`, so the total variance is never negative.
+fn shared_variance(acc: &[[f64; 3]], count: u64, camera: [f64; 3]) -> [f64; 3] {
+    let g = acc.len() - 1;
+    let (gf, n) = (g as f64, count as f64);
+    if g < 2 || count < 2 {
         return [0.0; 3];
     }
     let mut out = [0.0; 3];
     for c in 0..3 {
-        let q = |s: &[f64; 3]| g * s[c] / n;
-        let mean = sums.iter().map(q).sum::<f64>() / g;
-        let s2 = sums.iter().map(|s| (q(s) - mean).powi(2)).sum::<f64>() / (g - 1.0);
-        out[c] = s2 / g;
+        let q = |s: &[f64; 3]| gf * s[c] / n;
+        let mean = acc[..g].iter().map(q).sum::<f64>() / gf;
+        let s2 = acc[..g].iter().map(|s| (q(s) - mean).powi(2)).sum::<f64>() / (gf - 1.0);
+        let interaction = (acc[g][c] - n * (gf - 1.0) * s2) / ((n - 1.0) * (gf - 1.0));
+        out[c] = (s2 / gf - interaction / (n * gf)).max(-camera[c]);
     }
     out
 }
@@ -308,10 +336,13 @@ fn pixel_pass<E, F>(
         groups: Vec<[f64; 3]>,
         /// Per sample index and slot: Σ over the tile's pixels.
         image: Vec<[f64; 3]>,
+        /// Per sample index, slot and photon group: Σ over the tile's pixels of the group's share.
+        image_groups: Vec<[f64; 3]>,
         counters: Counters,
         extra: E,
     }
     let (slots, g) = (spec.slots, spec.groups);
+    let stride = slots * group_stride(g);
     let n = (indices.end - indices.start) as usize;
     let width = spec.width;
     let films = &state.films;
@@ -322,8 +353,9 @@ fn pixel_pass<E, F>(
             let (w, h) = tile_size(spec, (x0, y0));
             let mut t = TileOut {
                 sums: Vec::with_capacity((w * h) as usize * slots),
-                groups: Vec::with_capacity((w * h) as usize * slots * g),
+                groups: Vec::with_capacity((w * h) as usize * stride),
                 image: vec![[0.0; 3]; n * slots],
+                image_groups: vec![[0.0; 3]; n * slots * g],
                 counters: Counters::default(),
                 extra: E::default(),
             };
@@ -335,7 +367,7 @@ fn pixel_pass<E, F>(
                     t.sums.extend(films.iter().map(|f| f.pixels[i]));
                     let gbase = t.groups.len();
                     t.groups
-                        .extend_from_slice(&groups[i * slots * g..(i + 1) * slots * g]);
+                        .extend_from_slice(&groups[i * stride..(i + 1) * stride]);
                     sink.running = t.sums[base];
                     for (k, index) in indices.clone().enumerate() {
                         sink.clear();
@@ -348,10 +380,16 @@ fn pixel_pass<E, F>(
                                 acc[c] += v[c];
                             }
                         }
-                        for (acc, v) in t.groups[gbase..].iter_mut().zip(&sink.group_values) {
-                            let v = to_f64(*v);
-                            for c in 0..3 {
-                                acc[c] += v[c];
+                        for s in 0..slots * (g > 0) as usize {
+                            let shares = &sink.group_values[s * g..(s + 1) * g];
+                            let acc = &mut t.groups[gbase + s * (g + 1)..][..g + 1];
+                            accumulate_groups(acc, shares.iter().map(|v| to_f64(*v)));
+                            let image = &mut t.image_groups[(k * slots + s) * g..][..g];
+                            for (acc, v) in image.iter_mut().zip(shares) {
+                                let v = to_f64(*v);
+                                for c in 0..3 {
+                                    acc[c] += v[c];
+                                }
                             }
                         }
                     }
@@ -362,6 +400,7 @@ fn pixel_pass<E, F>(
         })
         .collect();
     let mut image = vec![[0.0f64; 3]; n * slots];
+    let mut image_groups = vec![[0.0f64; 3]; n * slots * g];
     for (&(x0, y0), t) in tiles.iter().zip(out) {
         let (w, h) = tile_size(spec, (x0, y0));
         for k in 0..(w * h) as usize {
@@ -369,11 +408,14 @@ fn pixel_pass<E, F>(
             for (s, film) in state.films.iter_mut().enumerate() {
                 film.pixels[i] = t.sums[k * slots + s];
             }
-            let stride = slots * g;
             state.groups[i * stride..(i + 1) * stride]
                 .copy_from_slice(&t.groups[k * stride..(k + 1) * stride]);
         }
-        for (acc, v) in image.iter_mut().zip(&t.image) {
+        for (acc, v) in image
+            .iter_mut()
+            .zip(&t.image)
+            .chain(image_groups.iter_mut().zip(&t.image_groups))
+        {
             for c in 0..3 {
                 acc[c] += v[c];
             }
@@ -382,6 +424,15 @@ fn pixel_pass<E, F>(
         state.extras.push(t.extra);
     }
     add_image_averages(state, &image, slots);
+    if g > 0 {
+        let pixels = state.films[0].pixels.len() as f64;
+        for per_index in image_groups.chunks(slots * g) {
+            for (s, shares) in per_index.chunks(g).enumerate() {
+                let acc = &mut state.image_groups[s * (g + 1)..][..g + 1];
+                accumulate_groups(acc, shares.iter().map(|v| v.map(|x| x / pixels)));
+            }
+        }
+    }
 }
 
 /// Adds the image-wide average of each sample index (`image`: per index and slot, Σ over pixels)

@@ -16,8 +16,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Power-proportional light selection; `None` when nothing emits.
     light_selection: Option<Distribution1D>,
-    /// Indices of the environment lights, looked up when a ray escapes.
-    environment: Vec<u32>,
+    /// Index of the environment light, looked up when a ray escapes (the scene's environment
+    /// lights merged into one).
+    environment: Option<u32>,
     /// Bounding sphere of the geometry.
     pub center: Vec3,
     pub radius: f32,
@@ -31,6 +32,7 @@ impl Scene {
         material_names: Vec<String>,
         lights: Vec<Light>,
     ) -> Scene {
+        let lights = merge_environments(lights);
         let (lo, hi) = accel.bounds();
         let (center, radius) = if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() {
             (
@@ -47,10 +49,8 @@ impl Scene {
         let light_selection = Distribution1D::new(&powers);
         let environment = lights
             .iter()
-            .enumerate()
-            .filter(|(_, l)| matches!(l, Light::Environment { .. }))
-            .map(|(i, _)| i as u32)
-            .collect();
+            .position(|l| matches!(l, Light::Environment { .. }))
+            .map(|i| i as u32);
         Scene {
             camera,
             accel,
@@ -99,17 +99,38 @@ impl Scene {
     /// Radiance arriving from infinity along a ray that hits nothing (environments are constant).
     #[inline]
     pub fn environment_le(&self) -> Rgb {
-        self.environment
-            .iter()
-            .fold(Rgb::BLACK, |acc, &i| match self.lights[i as usize] {
-                Light::Environment { radiance } => acc + radiance,
-                _ => acc,
-            })
+        match self.environment.map(|i| &self.lights[i as usize]) {
+            Some(&Light::Environment { radiance }) => radiance,
+            _ => Rgb::BLACK,
+        }
     }
 
-    /// Environment lights, for MIS weights of escaped rays.
+    /// The environment light, if any, for MIS weights of escaped rays.
     #[inline]
-    pub fn environment_lights(&self) -> &[u32] {
-        &self.environment
+    pub fn environment_light(&self) -> Option<u32> {
+        self.environment
     }
+}
+
+/// Several environment lights are one: a ray that escapes sees their summed radiance, and a light
+/// sample or photon from "the environment" must be drawn from that sum, so they are merged into a
+/// single light (at the first one's place) whose radiance is the sum. With one light per escaped
+/// direction, every estimator's MIS weights and emission densities stay those of a single emitter.
+fn merge_environments(lights: Vec<Light>) -> Vec<Light> {
+    let total = lights.iter().fold(None, |acc: Option<Rgb>, l| match l {
+        Light::Environment { radiance } => Some(acc.unwrap_or(Rgb::BLACK) + *radiance),
+        _ => acc,
+    });
+    let mut merged = false;
+    lights
+        .into_iter()
+        .filter_map(|l| match l {
+            Light::Environment { .. } if merged => None,
+            Light::Environment { .. } => {
+                merged = true;
+                total.map(|radiance| Light::Environment { radiance })
+            }
+            other => Some(other),
+        })
+        .collect()
 }
