@@ -221,3 +221,35 @@ fn shipped_scenes_load() {
         lightlab_scene::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
     }
 }
+
+/// Settings that would silently render something else are refused with the reason: strategies
+/// that never sample lights cannot see point or spot lights (nothing hits them), and
+/// `shadows: false` only applies to next-event estimation.
+#[test]
+fn settings_that_cannot_render_the_scene_are_refused() {
+    use lightlab_integrators::IntegratorConfig;
+    let text = format!(
+        "Scene(\n{CAMERA},\n{WHITE}\nshapes: [ Shape(geometry: Sphere(center: (0, 0, 0), radius: 1), material: \"white\") ],\n{LIGHT}\n)"
+    );
+    let scene = parse_scene(&text, Path::new("point.ron")).unwrap();
+    for strategy in ["BsdfOnly", "Uniform"] {
+        let integrator = IntegratorConfig::from_ron(&format!("Path(strategy: {strategy})"))
+            .unwrap()
+            .build();
+        let e = integrator.check_scene(&scene).unwrap_err();
+        assert!(
+            e.contains(strategy) && e.contains("point and spot"),
+            "{strategy}: {e}"
+        );
+        let e = IntegratorConfig::from_ron(&format!("Path(strategy: {strategy}, shadows: false)"))
+            .unwrap_err();
+        assert!(e.contains("shadows: false") && e.contains(strategy), "{e}");
+    }
+    for ok in [
+        "Path(strategy: Mis)",
+        "Path(strategy: LightOnly, shadows: false)",
+    ] {
+        let integrator = IntegratorConfig::from_ron(ok).unwrap().build();
+        assert!(integrator.check_scene(&scene).is_ok(), "{ok}");
+    }
+}

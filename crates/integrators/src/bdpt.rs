@@ -13,9 +13,11 @@
 //! pbrt-v4 §16.3.4): each vertex stores `pdf_fwd` (density of its generation along its own subpath)
 //! and `pdf_rev` (density of its generation from the other side), and the weight of (s, t) is
 //! 1 / Σᵢ (pᵢ / p_s). Strategies that cannot produce a path (a delta vertex at a connection) are left
-//! out of the sum. At a specular vertex both densities keep the lobe's selection probability (the
-//! common Dirac factor cancels in the ratios), unlike pbrt's zero-then-remap-to-one, which loses the
-//! cos/d² conversions beside specular chains (see `random_walk`).
+//! out of the sum. At a specular vertex the two directions' densities are the lobe's selection
+//! probability times η²|cos θ| (`delta_densities`: the Dirac delta written in the throughput
+//! measure, which refraction preserves, cancels from the ratios), unlike pbrt's
+//! zero-then-remap-to-one, which loses the cos/d² conversions beside specular chains and the
+//! solid-angle compression of a refraction.
 //!
 //! Research views: `strategy_layers` writes every strategy as a layer, weighted and unweighted;
 //! `outliers` logs large contributions with their provenance, and [`Bdpt::replay`] recomputes any
@@ -233,6 +235,28 @@ impl Vertex {
     }
 }
 
+/// The densities a delta vertex stores for its two directions: the sampled `s.wi` (forward) and
+/// the arrival direction `wo` (reverse, what the other subpath would sample), as the lobe's
+/// selection probability P times η²·|cos θ| — η the refractive index of the direction's side
+/// relative to the arrival side (`s.eta` for a refraction, 1 for a reflection), θ its angle to
+/// the shading normal `ns`.
+///
+/// Why. A delta BSDF's direction density is P times a Dirac delta, and MIS compares strategies
+/// that generate the vertex after it from either side, so the two deltas must be written in one
+/// measure for their ratio to be defined. Refraction preserves the throughput measure
+/// η² |cos θ| dω (étendue; Veach 1997 §5.2.2, Nicodemus 1963): a Dirac delta in that measure is the
+/// same on both sides of the interface and cancels from every ratio, leaving P·η²|cos θ| per
+/// direction. Their ratio is the solid-angle compression (η_i/η_t)² cos θ_i / cos θ_t that one
+/// refraction brings into the path density; it cancels for a symmetric pair of interfaces
+/// (entering and leaving a sphere) but not at one flat interface. Only each vertex's ratio enters
+/// the weights, so the common scale (the arrival side's η) does not matter; the Fresnel selection
+/// probability is the same from either side, so P serves both directions.
+#[inline]
+fn delta_densities(s: &lightlab_materials::BsdfSample, wo: Vec3, ns: Vec3) -> (f32, f32) {
+    let eta2 = if s.transmission { s.eta * s.eta } else { 1.0 };
+    (s.pdf * eta2 * s.wi.dot(ns).abs(), s.pdf * wo.dot(ns).abs())
+}
+
 fn direction(from: &Vertex, to: &Vertex) -> Vec3 {
     if to.infinite {
         -to.ng
@@ -337,16 +361,8 @@ impl Bdpt {
             pdf_fwd_w = s.pdf;
             let n = path.len();
             if s.delta {
-                // A specular vertex: the densities of its two directions are the lobe's selection
-                // probability times a Dirac delta in solid angle. Both directions carry the same
-                // delta (mirror reflection and refraction preserve solid angle up to the η² factors,
-                // which cancel between entering and leaving a closed dielectric), so it cancels in
-                // every MIS ratio (Veach 1997, §10.3.5); keeping the lobe probability, rather than
-                // pbrt's 0-remapped-to-1, keeps the cos/d² conversions of the neighbouring vertices,
-                // and with them the weights of paths through specular chains independent of scale.
-                // Dielectric Fresnel terms are the same from either side, so reverse = forward.
                 path[n - 1].delta = true;
-                pdf_rev_w = s.pdf;
+                (pdf_fwd_w, pdf_rev_w) = delta_densities(&s, wo, sb.frame.n);
             }
             let this = path[n - 1];
             path[n - 2].pdf_rev = this.convert_density(pdf_rev_w, &path[n - 2]);
@@ -1311,6 +1327,293 @@ mod tests {
             assert!(
                 checked >= 50,
                 "{name}: only {checked} paths reached the light"
+            );
+        }
+    }
+
+    /// A sampler that replays `values` in order (then ½): drives a production walk along a path
+    /// chosen in advance.
+    struct Script {
+        values: Vec<f32>,
+        next: usize,
+    }
+
+    impl Sampler for Script {
+        fn start_pixel_sample(&mut self, _: u64, _: u64, _: u64) {}
+        fn next_1d(&mut self) -> f32 {
+            self.next += 1;
+            self.values.get(self.next - 1).copied().unwrap_or(0.5)
+        }
+        fn next_2d(&mut self) -> Vec2 {
+            Vec2::new(self.next_1d(), self.next_1d())
+        }
+    }
+
+    fn bdpt(max_bounces: u32) -> Bdpt {
+        Bdpt::new(BdptConfig {
+            mis: Mis::Balance,
+            max_bounces: Some(max_bounces),
+            min_bounces: 0,
+            russian_roulette: None,
+            sampler: Default::default(),
+            strategy_layers: false,
+            outliers: None,
+            paths: None,
+            layers: Default::default(),
+        })
+    }
+
+    /// The camera subpath that `camera_subpath` traces back through the vertices of the light
+    /// subpath `light` (x₀ on the light … x_{n−1}) when its samples are chosen to: the camera ray
+    /// through x_{n−1}'s raster position, at every diffuse vertex the inverse of the cosine warp
+    /// toward the next vertex, at every delta vertex the lobe the light path took. `None` unless
+    /// the walk retraces every vertex.
+    fn camera_through(bdpt: &Bdpt, scene: &Scene, light: &[Vertex]) -> Option<Vec<Vertex>> {
+        use lightlab_samplers::warp::cosine_hemisphere_to_square;
+        let n = light.len();
+        let raster = scene
+            .camera
+            .sample_wi(light[n - 1].p, Vec2::splat(0.5))?
+            .raster;
+        let mut values = vec![0.5, 0.5];
+        for j in (1..n).rev() {
+            let (here, next) = (&light[j], &light[j - 1]);
+            let sb = here.sb?;
+            let wi = (next.p - here.p).normalize();
+            let (u_lobe, u_dir) = if here.delta {
+                let prev = if j + 1 < n {
+                    light[j + 1].p
+                } else {
+                    scene.camera.eye
+                };
+                let through = (prev - here.p).dot(here.ng) * (next.p - here.p).dot(here.ng) < 0.0;
+                (if through { 1.0 - 1e-6 } else { 0.0 }, Vec2::splat(0.5))
+            } else {
+                let mut local = sb.frame.to_local(wi);
+                local.z = local.z.abs();
+                (0.5, cosine_hemisphere_to_square(local))
+            };
+            values.extend([u_lobe, u_dir.x, u_dir.y, 0.5]);
+        }
+        let mut sampler = Script { values, next: 0 };
+        let mut camera = Vec::new();
+        let film = raster;
+        bdpt.camera_subpath(
+            scene,
+            film,
+            &mut sampler,
+            n as u32 + 1,
+            &mut camera,
+            &mut Counters::default(),
+        );
+        let retraced = camera.len() == n + 1
+            && (1..=n).all(|j| camera[j].p.distance(light[n - j].p) < 1e-3)
+            && camera[n].emitter != NO_LIGHT;
+        retraced.then_some(camera)
+    }
+
+    /// Σ over the strategies that can make the path `light` + camera of their MIS weights, from
+    /// the densities the two production walks stored.
+    fn weight_sum(scene: &Scene, light: &[Vertex], camera: &[Vertex], heuristic: Mis) -> f64 {
+        let m = light.len();
+        (0..=m)
+            .filter(|&s| s == 0 || !(light[s - 1].delta || camera[m - s].delta))
+            .map(|s| {
+                let t = m + 1 - s;
+                let sampled = match (s, t) {
+                    (1, _) => Some(light[0]),
+                    (_, 1) => Some(camera[0]),
+                    _ => None,
+                };
+                Bdpt::mis_weight(scene, light, camera, sampled, s, t, heuristic) as f64
+            })
+            .sum()
+    }
+
+    /// Light subpaths of `scene` traced by production code (seeds 0, 1, …) whose last vertex the
+    /// camera sees and which `keep` accepts, each with the camera subpath retracing it.
+    fn production_paths(
+        scene: &Scene,
+        bdpt: &Bdpt,
+        vertices: u32,
+        keep: impl Fn(&[Vertex]) -> bool,
+        want: usize,
+    ) -> Vec<(Vec<Vertex>, Vec<Vertex>)> {
+        let mut out = Vec::new();
+        for seed in 0..400_000u64 {
+            let mut sampler = Independent::new();
+            sampler.start_pixel_sample(seed, 0, 0);
+            let mut light = Vec::new();
+            bdpt.light_subpath(
+                scene,
+                &mut sampler,
+                vertices,
+                &mut light,
+                &mut Counters::default(),
+            );
+            let Some(last) = light.last() else { continue };
+            if light.len() < 2 || last.delta || !keep(&light) {
+                continue;
+            }
+            let visible = scene
+                .camera
+                .sample_wi(last.p, Vec2::splat(0.5))
+                .is_some_and(|cs| {
+                    Bdpt::visible(
+                        scene,
+                        last,
+                        &Vertex::new(Kind::Camera, cs.p_lens, Rgb::WHITE),
+                    )
+                });
+            if !visible {
+                continue;
+            }
+            if let Some(camera) = camera_through(bdpt, scene, &light) {
+                out.push((light, camera));
+                if out.len() == want {
+                    break;
+                }
+            }
+        }
+        out
+    }
+
+    /// One refractive interface: a light under a diffuse ceiling above a flat glass surface
+    /// (η = 1.5 below it), a diffuse floor in the glass and the camera in the glass too — the
+    /// path `L D S D E` crosses the interface once.
+    fn flat_interface(material: &str) -> Scene {
+        let text = format!(
+            "Scene(camera: Camera(eye: (0, -0.4, 1.6), target: (0, -1, 0), fov: 50, resolution: (32, 32)),
+               materials: {{ \"white\": Diffuse(albedo: (0.8, 0.8, 0.8)), \"black\": Diffuse(albedo: (0, 0, 0)),
+                             \"interface\": {material} }},
+               shapes: [
+                 Shape(geometry: Quad(corner: (-10, 0, -10), edge1: (0, 0, 20), edge2: (20, 0, 0)), material: \"interface\"),
+                 Shape(geometry: Quad(corner: (-3, -1, -3), edge1: (0, 0, 6), edge2: (6, 0, 0)), material: \"white\"),
+                 Shape(geometry: Quad(corner: (-3, 1, -3), edge1: (6, 0, 0), edge2: (0, 0, 6)), material: \"white\"),
+                 Shape(geometry: Quad(corner: (-0.3, 0.5, -0.3), edge1: (0, 0, 0.6), edge2: (0.6, 0, 0)), material: \"black\",
+                       emission: (radiance: (5, 5, 5))),
+               ])"
+        );
+        lightlab_scene::parse_scene(&text, std::path::Path::new("flat-interface.ron")).unwrap()
+    }
+
+    /// The weights of all strategies sum to one with the densities the walks themselves store —
+    /// through a mirror, one flat refractive interface, and the glass sphere (two interfaces) —
+    /// for the balance and power heuristics and uniform weights. (It fails when the two walks
+    /// disagree on a delta vertex's ratio of densities.)
+    #[test]
+    fn production_weights_sum_to_one_through_specular_vertices() {
+        let with_delta = |p: &[Vertex]| p.iter().any(|v| v.delta);
+        let mirror_floor = {
+            let text = std::fs::read_to_string(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("../../scenes/caustic-sphere.ron"),
+            )
+            .unwrap()
+            .replace(
+                "\"glass\": Dielectric(ior: 1.5)",
+                "\"glass\": Mirror(reflectance: (0.9, 0.9, 0.9))",
+            );
+            lightlab_scene::parse_scene(&text, std::path::Path::new("mirror-sphere.ron")).unwrap()
+        };
+        for (name, scene) in [
+            ("mirror sphere", mirror_floor),
+            ("flat interface", flat_interface("Dielectric(ior: 1.5)")),
+            ("glass sphere", super::tests::scene("caustic-sphere.ron")),
+        ] {
+            let bdpt = bdpt(6);
+            let paths = production_paths(&scene, &bdpt, 6, with_delta, 40);
+            assert!(paths.len() >= 20, "{name}: only {} paths", paths.len());
+            for (light, camera) in &paths {
+                for heuristic in [Mis::Balance, Mis::Power, Mis::Uniform] {
+                    let sum = weight_sum(&scene, light, camera, heuristic);
+                    assert!(
+                        (sum - 1.0).abs() < 2e-3,
+                        "{name}, {heuristic:?}: a path of {} light vertices has weights summing to {sum}",
+                        light.len()
+                    );
+                }
+            }
+        }
+    }
+
+    /// On `L D S D E` through one flat interface the balance weights are the true ones: the ratio
+    /// of the light-tracing strategy (s = 4) to next-event estimation (s = 1) equals the ratio of
+    /// their path densities computed independently, with the solid-angle Jacobians through the
+    /// refraction taken by finite differences in f64 (Snell's law, the landing point's area per
+    /// steradian). Keeping the lobe probability alone at the delta vertex was off by the
+    /// compression (η_i/η_t)² cos θ_i / cos θ_t — a factor 0.3–0.5 here.
+    #[test]
+    fn weights_through_one_refraction_match_finite_difference_densities() {
+        use glam::DVec3;
+        let scene = flat_interface("Dielectric(ior: 1.5)");
+        let eta = 1.5f64;
+        let bdpt = bdpt(3);
+        let shape = |p: &[Vertex]| {
+            p.len() == 4 && !p[1].delta && p[2].delta && p[1].p.y > 0.9 && p[3].p.y < -0.9
+        };
+        let paths = production_paths(&scene, &bdpt, 4, shape, 10);
+        assert!(paths.len() >= 5, "only {} L D S D paths", paths.len());
+        // Refracts d at the plane y = 0 and returns where it lands on the plane y = `to`.
+        let land = |origin: DVec3, d: DVec3, to: f64| -> DVec3 {
+            let at = origin + d * (-origin.y / d.y);
+            let (eta_i, eta_t) = if d.y < 0.0 { (1.0, eta) } else { (eta, 1.0) };
+            let n = DVec3::new(0.0, -d.y.signum(), 0.0);
+            let cos_i = -d.dot(n);
+            let r = eta_i / eta_t;
+            let t = d * r + n * (r * cos_i - (1.0 - r * r * (1.0 - cos_i * cos_i)).sqrt());
+            at + t * ((to - at.y) / t.y)
+        };
+        // Steradians per unit area of the landing point on the plane y = `to`, for directions
+        // around d from `origin`.
+        let jacobian = |origin: DVec3, d: DVec3, to: f64| -> f64 {
+            let (t1, t2) = {
+                let a = if d.x.abs() < 0.9 { DVec3::X } else { DVec3::Z };
+                let t1 = d.cross(a).normalize();
+                (t1, d.cross(t1))
+            };
+            let h = 1e-6;
+            let at = |a: f64, b: f64| land(origin, (d + t1 * a + t2 * b).normalize(), to);
+            let da = (at(h, 0.0) - at(-h, 0.0)) / (2.0 * h);
+            let db = (at(0.0, h) - at(0.0, -h)) / (2.0 * h);
+            1.0 / da.cross(db).length()
+        };
+        for (light, camera) in &paths {
+            let x: Vec<DVec3> = light.iter().map(|v| v.p.as_dvec3()).collect();
+            let eye = scene.camera.eye.as_dvec3();
+            let cos_up = |a: DVec3, b: DVec3| (b - a).normalize().y.abs();
+            // s = 4: the light emits x₀ → x₁ (cosine), x₁ scatters toward x₂ (cosine), which
+            // refracts to x₃; the camera vertex is the pinhole for every strategy.
+            let d01 = x[1] - x[0];
+            let p_41 = cos_up(x[0], x[1]) / std::f64::consts::PI * cos_up(x[0], x[1])
+                / d01.length_squared()
+                * cos_up(x[1], x[2])
+                / std::f64::consts::PI
+                * jacobian(x[1], (x[2] - x[1]).normalize(), -1.0);
+            // s = 1: the camera samples x₃ (its directional density times cos/d²), x₃ scatters
+            // toward x₂ (cosine), which refracts to x₁; the light point x₀ is sampled alike.
+            let d3 = x[3] - eye;
+            let p_cam = scene
+                .camera
+                .pdf_we_dir(scene.camera.eye, d3.normalize().as_vec3())
+                as f64
+                * cos_up(eye, x[3])
+                / d3.length_squared();
+            let p_14 = p_cam * cos_up(x[3], x[2]) / std::f64::consts::PI
+                * jacobian(x[3], (x[2] - x[3]).normalize(), 1.0);
+            let w = |s: usize| {
+                let t = 5 - s;
+                let sampled = match (s, t) {
+                    (1, _) => Some(light[0]),
+                    (_, 1) => Some(camera[0]),
+                    _ => None,
+                };
+                Bdpt::mis_weight(&scene, light, camera, sampled, s, t, Mis::Balance) as f64
+            };
+            let (production, exact) = (w(4) / w(1), p_41 / p_14);
+            assert!(
+                (production / exact - 1.0).abs() < 2e-3,
+                "w(4,1)/w(1,4) = {production:.5}, the densities' ratio {exact:.5}"
             );
         }
     }
