@@ -134,3 +134,77 @@ fn every_command_has_help() {
         );
     }
 }
+
+/// Runs `lightlab render` on `scene` with `args`, returning (success, stdout, stderr).
+fn render_with(scene: &Path, args: &[&str], out: &Path) -> (bool, String, String) {
+    let o = lightlab()
+        .arg("render")
+        .args(args)
+        .arg("-o")
+        .arg(out)
+        .arg(scene)
+        .output()
+        .unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// `--seconds` renders for a time instead of a sample count, and the statistics say how many
+/// samples it reached; the image's standard error is printed only where the sample passes are
+/// independent, and says what it is; invalid budgets and impossible settings are errors.
+#[test]
+fn time_budget_and_honest_error_bars() {
+    let dir = temp_dir("seconds");
+    let scene = repo().join("scenes/cornell-box.ron");
+    let small = dir.join("small.ron");
+    std::fs::write(
+        &small,
+        std::fs::read_to_string(&scene)
+            .unwrap()
+            .replace("resolution: (256, 256)", "resolution: (32, 32)"),
+    )
+    .unwrap();
+    let out = dir.join("t.exr");
+    let (ok, stdout, stderr) = render_with(
+        &small,
+        &["--seconds", "0.3", "-i", "Light(max_bounces: 3)"],
+        &out,
+    );
+    assert!(ok, "{stderr}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("t.json")).unwrap()).unwrap();
+    let spp = stats["stats"]["spp"].as_u64().unwrap();
+    assert!(spp >= 2, "{spp} samples in 0.3 s");
+    assert!(
+        stdout.contains(&format!("from the spread of {spp} independent sample passes")),
+        "{stdout}"
+    );
+    let (ok, stdout, stderr) = render_with(&small, &["--spp", "4", "-i", "Sppm(photons_per_pass: 1000)"], &out);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("no standard error") && !stdout.contains(" ± "), "{stdout}");
+    assert!(stdout.contains("not the variance of the pixel mean"), "{stdout}");
+    for bad in ["0", "-1", "nan", "inf"] {
+        let (ok, _, stderr) = render_with(&small, &["--seconds", bad], &out);
+        assert!(!ok && stderr.contains("--seconds") && !stderr.contains("panicked"), "{bad}: {stderr}");
+    }
+    let (ok, _, stderr) = render_with(&small, &["--spp", "4", "--seconds", "1"], &out);
+    assert!(!ok && stderr.contains("cannot be used with"), "{stderr}");
+    let point = dir.join("point.ron");
+    std::fs::write(
+        &point,
+        "Scene(camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (8, 8)),
+               materials: { \"white\": Diffuse(albedo: (0.5, 0.5, 0.5)) },
+               shapes: [ Shape(geometry: Sphere(center: (0, 0, 0), radius: 1), material: \"white\") ],
+               lights: [ Point(position: (0, 2, 2), intensity: (1, 1, 1)) ])",
+    )
+    .unwrap();
+    let (ok, _, stderr) = render_with(&point, &["-i", "Path(strategy: BsdfOnly)"], &out);
+    assert!(
+        !ok && stderr.contains("point.ron") && stderr.contains("point and spot") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -231,3 +231,142 @@ fn classes_get_their_own_metrics_and_plots() {
     }
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// A reference rendered with a correlated sampler has no variance estimate: nothing is subtracted
+/// from the errors (reference_variance 0 in every run) and the run says why.
+#[test]
+fn correlated_reference_variance_is_not_subtracted() {
+    let (exp, dir) = setup("sobol-reference");
+    let text = EXPERIMENT
+        .replace("name: \"tiny\"", "name: \"sobolref\"")
+        .replace(
+            r#"reference: Render(integrator: "Path(max_bounces: 3)", spp: 64)"#,
+            r#"reference: Render(integrator: "Path(max_bounces: 3, sampler: Sobol)", spp: 64)"#,
+        );
+    std::fs::write(&exp, text).unwrap();
+    let options = RunOptions {
+        results: dir.join("results"),
+        shard: None,
+    };
+    let o = run_experiment(&exp, &options, &NoProgress, &NoProgress, &|_| {}).unwrap();
+    assert!(
+        o.warnings
+            .iter()
+            .any(|w| w.contains("not subtracted") && w.contains("Sobol")),
+        "{:?}",
+        o.warnings
+    );
+    for r in finished_runs(&o.out_dir).unwrap() {
+        assert_eq!(r.errors.reference_variance, 0.0, "{}", r.id);
+    }
+    // With an independent reference it is subtracted.
+    let (exp, dir2) = setup("independent-reference");
+    let o = run_experiment(
+        &exp,
+        &RunOptions {
+            results: dir2.join("results"),
+            shard: None,
+        },
+        &NoProgress,
+        &NoProgress,
+        &|_| {},
+    )
+    .unwrap();
+    assert!(
+        finished_runs(&o.out_dir)
+            .unwrap()
+            .iter()
+            .all(|r| r.errors.reference_variance > 0.0)
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+    std::fs::remove_dir_all(dir2).unwrap();
+}
+
+/// summary.json: efficiency is 1/(mean MSE × mean time) of the setting's trials (not the mean of
+/// the per-trial ratios), relative efficiency likewise with relMSE, each with a standard error and
+/// whether the error is significant; every convergence fit lists the points it left out.
+#[test]
+fn summary_efficiency_is_a_ratio_of_means() {
+    let (exp, dir) = setup("efficiency");
+    run(&exp, &dir.join("results"), None);
+    let out = dir.join("results/tiny");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let records = finished_runs(&out).unwrap();
+    for s in summary["settings"].as_array().unwrap() {
+        let trials: Vec<&RunRecord> = records
+            .iter()
+            .filter(|r| r.method == s["method"] && r.setting == s["setting"])
+            .collect();
+        let mean = |f: &dyn Fn(&RunRecord) -> f64| {
+            trials.iter().map(|r| f(r)).sum::<f64>() / trials.len() as f64
+        };
+        let (mse, time) = (mean(&|r| r.errors.mse), mean(&|r| r.wall_seconds));
+        let e = &s["efficiency"];
+        if mse > 0.0 {
+            let want = 1.0 / (mse * time);
+            let got = e["value"].as_f64().unwrap();
+            assert!((got / want - 1.0).abs() < 1e-9, "{s}");
+            assert!(e["se"].as_f64().unwrap() >= 0.0);
+        } else {
+            assert!(e["value"].is_null(), "{s}");
+        }
+        assert!(e["error_significant"].is_boolean());
+        assert!(s["rel_efficiency"]["error_significant"].is_boolean());
+    }
+    for fit in summary["convergence"].as_array().unwrap() {
+        assert!(fit["fit"]["excluded"].is_array(), "{fit}");
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// References from other renderers: a single-part EXR with plain R, G, B channels (as Mitsuba 3
+/// and pbrt-v4 write them) with its variance in a separate file, and a single-part file whose
+/// layers are channel prefixes (`radiance.R`, `variance.R`), give the same image and variance.
+#[test]
+fn foreign_exr_references_load() {
+    use exr::prelude::*;
+    use lightlab_experiments::reference::load_foreign;
+    let dir = std::env::temp_dir().join(format!("lightlab-foreign-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (5usize, 3usize);
+    let value = |x: usize, y: usize| (x as f32 * 0.1, y as f32, 2.0);
+    let var = |x: usize, y: usize| (1e-4 * x as f32, 1e-4, 1e-4 * y as f32);
+    write_rgb_file(dir.join("plain.exr"), w, h, value).unwrap();
+    write_rgb_file(dir.join("var.exr"), w, h, var).unwrap();
+    let plain = load_foreign(&dir.join("plain.exr"), None, Some(&dir.join("var.exr"))).unwrap();
+    assert_eq!((plain.width, plain.height), (5, 3));
+    assert_eq!(plain.mean[7], [0.2, 1.0, 2.0]);
+    assert_eq!(plain.variance.as_ref().unwrap()[7], [2e-4, 1e-4, 1e-4]);
+
+    let channel = |name: &str, f: &dyn Fn(usize, usize) -> f32| {
+        AnyChannel::new(
+            name,
+            FlatSamples::F32((0..w * h).map(|i| f(i % w, i / w)).collect()),
+        )
+    };
+    let layer = Layer::new(
+        Vec2(w, h),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(smallvec::smallvec![
+            channel("radiance.R", &|x, y| value(x, y).0),
+            channel("radiance.G", &|x, y| value(x, y).1),
+            channel("radiance.B", &|x, y| value(x, y).2),
+            channel("variance.R", &|x, y| var(x, y).0),
+            channel("variance.G", &|x, y| var(x, y).1),
+            channel("variance.B", &|x, y| var(x, y).2),
+            channel("A", &|_, _| 1.0),
+        ]),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_file(dir.join("prefixed.exr"))
+        .unwrap();
+    let prefixed = load_foreign(&dir.join("prefixed.exr"), None, None).unwrap();
+    assert_eq!(prefixed, plain);
+    // A file with several unnamed candidates and no `radiance` says which layers it has.
+    let e = load_foreign(&dir.join("prefixed.exr"), Some("beauty"), None).unwrap_err();
+    assert!(e.contains("\"radiance\"") && e.contains("beauty"), "{e}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
