@@ -114,9 +114,12 @@ pub fn caustic_sphere(res: (u32, u32)) -> String {
 
 /// The Cornell box of `scenes/cornell-box.ron`, uniformly scaled by `s` about the origin and then
 /// moved by `t`, at resolution `res`. The light's radiance is unchanged, so the image is the same.
-pub fn cornell(s: f32, t: [f32; 3], res: (u32, u32)) -> String {
-    let p =
-        |x: f32, y: f32, z: f32| format!("({}, {}, {})", x * s + t[0], y * s + t[1], z * s + t[2]);
+/// Positions are written in f64, as a file far from the origin would hold them.
+pub fn cornell(s: f32, t: [f64; 3], res: (u32, u32)) -> String {
+    let p = |x: f64, y: f64, z: f64| {
+        let s = s as f64;
+        format!("({}, {}, {})", x * s + t[0], y * s + t[1], z * s + t[2])
+    };
     let v = |x: f32, y: f32, z: f32| format!("({}, {}, {})", x * s, y * s, z * s);
     let quad = |c: String, a: String, b: String, m: &str| {
         format!("Shape(geometry: Quad(corner: {c}, edge1: {a}, edge2: {b}), material: \"{m}\"),")

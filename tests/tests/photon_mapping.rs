@@ -141,7 +141,9 @@ fn point_light_irradiance_estimate_converges_with_kernel_bias() {
         let mut worst = 0.0f64;
         for kernel in [Kernel::Uniform, Kernel::Cone, Kernel::Epanechnikov] {
             for &(x, z) in &points {
-                let g = gather_at(x, z);
+                // The scene renders centred on its bounding box (`Scene::origin`).
+                let mut g = gather_at(x, z);
+                g.p -= sc.origin.as_vec3();
                 let mut l = 0.0f64;
                 let radius_sq = map.estimate(
                     &g,

@@ -22,14 +22,15 @@ fn text(res: (u32, u32)) -> String {
     )
 }
 
-/// ρ/π · I cosθ / r² at the plane point seen through raster position `film`, 0 if the ray misses.
-fn analytic(cam: &lightlab_scene::Camera, film: Vec2) -> f64 {
-    let ray = cam.generate_ray(film, Vec2::ZERO);
+/// ρ/π · I cosθ / r² at the plane point seen through raster position `film`, 0 if the ray misses
+/// (the camera ray is in render space, centred at `scene.origin`).
+fn analytic(scene: &lightlab_scene::Scene, film: Vec2) -> f64 {
+    let ray = scene.camera.generate_ray(film, Vec2::ZERO);
     if ray.d.y >= 0.0 {
         return 0.0;
     }
-    let t = -ray.o.y / ray.d.y;
-    let p = ray.at(t).as_dvec3();
+    let (o, d) = (ray.o.as_dvec3() + scene.origin, ray.d.as_dvec3());
+    let p = o + d * (-o.y / d.y);
     let to_light = glam::DVec3::from_array(LIGHT) - p;
     let r2 = to_light.length_squared();
     let cos = to_light.y / r2.sqrt();
@@ -66,7 +67,7 @@ fn point_light_over_plane_matches_analytic_radiance_per_pixel() {
                 let want: f64 = (0..n * n)
                     .map(|k| {
                         analytic(
-                            &sc.camera,
+                            &sc,
                             Vec2::new(
                                 x as f32 + ((k % n) as f32 + 0.5) / n as f32,
                                 y as f32 + ((k / n) as f32 + 0.5) / n as f32,

@@ -65,6 +65,9 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     };
     budget.check().map_err(|e| format!("--seconds: {e}"))?;
     let scene = lightlab_scene::load_scene(&args.scene).map_err(|e| e.to_string())?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(t) = args.threads {
         pool = pool.num_threads(t as usize);

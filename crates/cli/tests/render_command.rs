@@ -179,16 +179,31 @@ fn time_budget_and_honest_error_bars() {
     let spp = stats["stats"]["spp"].as_u64().unwrap();
     assert!(spp >= 2, "{spp} samples in 0.3 s");
     assert!(
-        stdout.contains(&format!("from the spread of {spp} independent sample passes")),
+        stdout.contains(&format!(
+            "from the spread of {spp} independent sample passes"
+        )),
         "{stdout}"
     );
-    let (ok, stdout, stderr) = render_with(&small, &["--spp", "4", "-i", "Sppm(photons_per_pass: 1000)"], &out);
+    let (ok, stdout, stderr) = render_with(
+        &small,
+        &["--spp", "4", "-i", "Sppm(photons_per_pass: 1000)"],
+        &out,
+    );
     assert!(ok, "{stderr}");
-    assert!(stdout.contains("no standard error") && !stdout.contains(" ± "), "{stdout}");
-    assert!(stdout.contains("not the variance of the pixel mean"), "{stdout}");
+    assert!(
+        stdout.contains("no standard error") && !stdout.contains(" ± "),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("not the variance of the pixel mean"),
+        "{stdout}"
+    );
     for bad in ["0", "-1", "nan", "inf"] {
         let (ok, _, stderr) = render_with(&small, &["--seconds", bad], &out);
-        assert!(!ok && stderr.contains("--seconds") && !stderr.contains("panicked"), "{bad}: {stderr}");
+        assert!(
+            !ok && stderr.contains("--seconds") && !stderr.contains("panicked"),
+            "{bad}: {stderr}"
+        );
     }
     let (ok, _, stderr) = render_with(&small, &["--spp", "4", "--seconds", "1"], &out);
     assert!(!ok && stderr.contains("cannot be used with"), "{stderr}");
@@ -203,7 +218,9 @@ fn time_budget_and_honest_error_bars() {
     .unwrap();
     let (ok, _, stderr) = render_with(&point, &["-i", "Path(strategy: BsdfOnly)"], &out);
     assert!(
-        !ok && stderr.contains("point.ron") && stderr.contains("point and spot") && !stderr.contains("panicked"),
+        !ok && stderr.contains("point.ron")
+            && stderr.contains("point and spot")
+            && !stderr.contains("panicked"),
         "{stderr}"
     );
     std::fs::remove_dir_all(dir).ok();

@@ -123,6 +123,7 @@ pub fn run_experiment(
     for run in &pending {
         if !scenes.contains_key(&run.scene) {
             let (scene, text) = load_scene(&run.scene, desc.resolution)?;
+            warnings.extend(scene.warnings.iter().cloned());
             log(&format!(
                 "reference for {}: {}",
                 run.scene_name,

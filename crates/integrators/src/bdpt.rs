@@ -5,8 +5,10 @@
 //! every full path y₀…y_{s−1} z_{t−1}…z₀ with s + t − 2 scattering vertices within the bounce
 //! limits: s = 0 (the camera path hits an emitter), s = 1 (a point sampled on a light, next-event
 //! estimation), t = 1 (a light vertex connected to a point on the lens and splatted into the pixel it
-//! lands on, as in light tracing) and s, t ≥ 2 (a deterministic connection of the two subpaths).
-//! Paths with s + t = 2 (an emitter seen directly) have one strategy, s = 0.
+//! lands on, as in light tracing — for s = 1 the light's own point, an emitter seen directly) and
+//! s, t ≥ 2 (a deterministic connection of the two subpaths). An emitter seen directly (s + t = 2)
+//! thus has two strategies, the camera ray hitting it (s = 0) and its point splatted through the lens
+//! (s = 1): the second is what renders an emitter smaller than a pixel's footprint.
 //!
 //! MIS: the balance heuristic, computed by Veach's walk over ratios of the area-measure densities
 //! with which neighbouring strategies would have produced the same path (Veach 1997 §10.2;
@@ -279,7 +281,7 @@ impl Bdpt {
         let strategies = match (config.strategy_layers, config.max_bounces) {
             (true, Some(max)) => (2..=max as usize + 2)
                 .flat_map(|n| (0..n).map(move |s| (s, n - s)))
-                .filter(|&st| st != (1, 1) && st.1 >= 1)
+                .filter(|&st| st.1 >= 1)
                 .collect(),
             _ => Vec::new(),
         };
@@ -316,6 +318,11 @@ impl Bdpt {
     ) {
         let mut pdf_fwd_w = pdf_w;
         let mut added = 0u32;
+        // Russian roulette scores the throughput relative to the walk's start — light subpaths
+        // start with the emitted flux, in units of power, which no absolute threshold can judge —
+        // and, on camera paths, with the η² of refractions divided out (pbrt-v4 §13.4.4).
+        let beta_start = beta.max_component();
+        let mut eta_scale = 1.0f32;
         while added < max_vertices {
             counters.rays += 1;
             let Some(hit) = scene.intersect(&ray) else {
@@ -366,7 +373,10 @@ impl Bdpt {
             }
             let this = path[n - 1];
             path[n - 2].pdf_rev = this.convert_density(pdf_rev_w, &path[n - 2]);
-            let score = beta.max_component();
+            if s.transmission && mode == TransportMode::Radiance {
+                eta_scale *= s.eta * s.eta;
+            }
+            let score = beta.max_component() / beta_start * eta_scale;
             if !survives(self.config.russian_roulette, added, score, u_rr, &mut beta) {
                 break;
             }
@@ -526,15 +536,17 @@ impl Bdpt {
         t: usize,
         heuristic: Mis,
     ) -> f32 {
-        if s + t == 2 || matches!(heuristic, Mis::Only { .. }) {
+        if matches!(heuristic, Mis::Only { .. }) {
             return 1.0;
         }
         let mut lv: Vec<Vertex> = light[..s].to_vec();
         let mut cv: Vec<Vertex> = camera[..t].to_vec();
-        if s == 1 {
-            lv[0] = sampled.expect("s = 1 samples the light vertex");
-        } else if t == 1 {
+        // t = 1 samples the lens point (for s = t = 1 too, whose light vertex is the subpath's
+        // origin); s = 1 with t ≥ 2 samples a point on a light.
+        if t == 1 {
             cv[0] = sampled.expect("t = 1 samples the camera vertex");
+        } else if s == 1 {
+            lv[0] = sampled.expect("s = 1 samples the light vertex");
         }
         // The connection vertices are never delta for the connection itself.
         if t > 0 {
@@ -638,10 +650,18 @@ impl Bdpt {
             if !(cs.pdf_w > 0.0) {
                 return None;
             }
-            // s ≥ 2 here (s = t = 1, an emitter seen directly, is left to s = 0): qs is a surface vertex.
             let v = Vertex::new(Kind::Camera, cs.p_lens, Rgb::splat(cs.we / cs.pdf_w));
             raster = Some(cs.raster);
-            let value = qs.beta * qs.f(&light[s - 2], &v, TransportMode::Importance);
+            let value = if s == 1 {
+                // s = t = 1: the point on the light seen directly through the lens (light
+                // tracing's emission connection); a point or spot light has no area to be seen.
+                if !qs.on_surface() || !(qs.pdf_fwd > 0.0) {
+                    return None;
+                }
+                qs.le(scene, &v) / qs.pdf_fwd
+            } else {
+                qs.beta * qs.f(&light[s - 2], &v, TransportMode::Importance)
+            };
             let cos = qs.ns.dot(cs.wi).abs();
             let l = value * v.beta * cos;
             sampled = Some(v);
@@ -857,8 +877,7 @@ impl Bdpt {
             );
             for s in 0..=light.len() {
                 let depth = (s + t) as i64 - 2;
-                if (s == 1 && t == 1)
-                    || depth < cfg.min_bounces as i64
+                if depth < cfg.min_bounces as i64
                     || depth > max_bounces as i64
                     || cfg.mis.excludes(s, t)
                 {
@@ -1304,10 +1323,10 @@ mod tests {
                         if connection_delta {
                             continue;
                         }
-                        let sampled = if s == 1 {
-                            Some(light[0])
-                        } else if t == 1 {
+                        let sampled = if t == 1 {
                             Some(camera[0])
+                        } else if s == 1 {
+                            Some(light[0])
                         } else {
                             None
                         };
@@ -1421,8 +1440,8 @@ mod tests {
             .map(|s| {
                 let t = m + 1 - s;
                 let sampled = match (s, t) {
-                    (1, _) => Some(light[0]),
                     (_, 1) => Some(camera[0]),
+                    (1, _) => Some(light[0]),
                     _ => None,
                 };
                 Bdpt::mis_weight(scene, light, camera, sampled, s, t, heuristic) as f64
@@ -1452,7 +1471,7 @@ mod tests {
                 &mut Counters::default(),
             );
             let Some(last) = light.last() else { continue };
-            if light.len() < 2 || last.delta || !keep(&light) {
+            if last.delta || !keep(&light) {
                 continue;
             }
             let visible = scene
@@ -1498,7 +1517,8 @@ mod tests {
     }
 
     /// The weights of all strategies sum to one with the densities the walks themselves store —
-    /// through a mirror, one flat refractive interface, and the glass sphere (two interfaces) —
+    /// through a mirror, one flat refractive interface, the glass sphere (two interfaces), and for
+    /// an emitter seen directly —
     /// for the balance and power heuristics and uniform weights. (It fails when the two walks
     /// disagree on a delta vertex's ratio of densities.)
     #[test]
@@ -1516,13 +1536,36 @@ mod tests {
             );
             lightlab_scene::parse_scene(&text, std::path::Path::new("mirror-sphere.ron")).unwrap()
         };
-        for (name, scene) in [
-            ("mirror sphere", mirror_floor),
-            ("flat interface", flat_interface("Dielectric(ior: 1.5)")),
-            ("glass sphere", super::tests::scene("caustic-sphere.ron")),
+        let directly = |p: &[Vertex]| p.len() == 1;
+        for (name, scene, keep, vertices) in [
+            (
+                "mirror sphere",
+                mirror_floor,
+                &with_delta as &dyn Fn(&[Vertex]) -> bool,
+                6,
+            ),
+            (
+                "flat interface",
+                flat_interface("Dielectric(ior: 1.5)"),
+                &with_delta,
+                6,
+            ),
+            (
+                "glass sphere",
+                super::tests::scene("caustic-sphere.ron"),
+                &with_delta,
+                6,
+            ),
+            // An emitter seen directly: s = 0 (the camera ray hits it) and s = t = 1.
+            (
+                "emitter seen directly",
+                super::tests::scene("cornell-box.ron"),
+                &directly,
+                1,
+            ),
         ] {
             let bdpt = bdpt(6);
-            let paths = production_paths(&scene, &bdpt, 6, with_delta, 40);
+            let paths = production_paths(&scene, &bdpt, vertices, keep, 40);
             assert!(paths.len() >= 20, "{name}: only {} paths", paths.len());
             for (light, camera) in &paths {
                 for heuristic in [Mis::Balance, Mis::Power, Mis::Uniform] {
@@ -1604,8 +1647,8 @@ mod tests {
             let w = |s: usize| {
                 let t = 5 - s;
                 let sampled = match (s, t) {
-                    (1, _) => Some(light[0]),
                     (_, 1) => Some(camera[0]),
+                    (1, _) => Some(light[0]),
                     _ => None,
                 };
                 Bdpt::mis_weight(&scene, light, camera, sampled, s, t, Mis::Balance) as f64

@@ -159,6 +159,10 @@ impl LightTracer {
         } else {
             spawn_ray(em.p, em.p_error, em.n, em.dir)
         };
+        // Russian roulette scores the throughput relative to the emitted flux: β is in units of
+        // power, which scale with the scene, so an absolute threshold would end every path of a
+        // small scene (and let a large one's run long).
+        let beta_start = beta.max_component();
         let mut depth = 0u32;
         // Scattering vertices so far, light first.
         let mut class = PathClass::EMPTY;
@@ -202,7 +206,7 @@ impl LightTracer {
                 break;
             }
             beta *= s.weight;
-            let score = beta.max_component();
+            let score = beta.max_component() / beta_start;
             if !survives(cfg.russian_roulette, depth, score, u_rr, &mut beta) {
                 break;
             }

@@ -36,8 +36,9 @@ pub struct Camera {
 }
 
 impl Camera {
-    pub fn new(d: &CameraDesc) -> Camera {
-        let forward = (d.target - d.eye).normalize();
+    /// The camera of `d` in render space: positions moved by −`origin` (see `load`).
+    pub fn new(d: &CameraDesc, origin: glam::DVec3) -> Camera {
+        let forward = (d.target - d.eye).normalize().as_vec3();
         let right = forward.cross(d.up).normalize();
         let up = right.cross(forward);
         let (w, h) = d.resolution;
@@ -48,7 +49,7 @@ impl Camera {
             Vec2::new(t, t * h as f32 / w as f32)
         };
         Camera {
-            eye: d.eye,
+            eye: (d.eye - origin).as_vec3(),
             forward,
             right,
             up,
@@ -200,8 +201,8 @@ mod tests {
 
     fn desc(res: (u32, u32)) -> CameraDesc {
         CameraDesc {
-            eye: Vec3::new(0.0, 0.0, 3.9),
-            target: Vec3::ZERO,
+            eye: glam::DVec3::new(0.0, 0.0, 3.9),
+            target: glam::DVec3::ZERO,
             up: Vec3::Y,
             fov: 90.0,
             resolution: res,
@@ -212,7 +213,7 @@ mod tests {
     #[test]
     fn fov_spans_the_smaller_axis() {
         for res in [(200, 100), (100, 200), (64, 64)] {
-            let cam = Camera::new(&desc(res));
+            let cam = Camera::new(&desc(res), glam::DVec3::ZERO);
             let (w, h) = (res.0 as f32, res.1 as f32);
             // Edge of the smaller axis is 45° off axis for a 90° fov.
             let d = if w >= h {
@@ -245,7 +246,7 @@ mod tests {
             aperture_radius: 0.2,
             focus_distance: 2.0,
         };
-        let cam = Camera::new(&d);
+        let cam = Camera::new(&d, glam::DVec3::ZERO);
         let film = Vec2::new(10.5, 20.25);
         let hit = |u: Vec2| {
             let r = cam.generate_ray(film, u);

@@ -4,9 +4,10 @@
 //! files) are checked when the scene is built (see `load.rs`).
 //!
 //! Units: lengths in scene units, angles in degrees, radiance in W·sr⁻¹·m⁻² and intensity in W·sr⁻¹
-//! per RGB channel.
+//! per RGB channel. Positions are read in f64 (the loader moves the scene to its own centre before
+//! anything is rounded to f32), directions and sizes in f32.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use lightlab_core::Rgb;
 use serde::{Deserialize, Deserializer, de};
 
@@ -33,8 +34,8 @@ pub struct SceneDesc {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, rename = "Camera", try_from = "CameraRaw")]
 pub struct CameraDesc {
-    pub eye: Vec3,
-    pub target: Vec3,
+    pub eye: DVec3,
+    pub target: DVec3,
     pub up: Vec3,
     pub fov: f32,
     pub resolution: (u32, u32),
@@ -45,9 +46,9 @@ pub struct CameraDesc {
 #[serde(deny_unknown_fields, rename = "Camera")]
 struct CameraRaw {
     /// Position of the pinhole (or the lens centre). Required.
-    eye: Vec3,
+    eye: DVec3,
     /// A point the camera looks at. Required.
-    target: Vec3,
+    target: DVec3,
     /// Up direction; need not be perpendicular to the view direction. Default (0, 1, 0).
     #[serde(default = "default_up")]
     up: Vec3,
@@ -82,11 +83,11 @@ pub enum Lens {
 impl TryFrom<CameraRaw> for CameraDesc {
     type Error = String;
     fn try_from(c: CameraRaw) -> Result<Self, String> {
-        finite_vec("camera eye", c.eye)?;
-        finite_vec("camera target", c.target)?;
+        finite_dvec("camera eye", c.eye)?;
+        finite_dvec("camera target", c.target)?;
         finite_vec("camera up", c.up)?;
-        let view = c.target - c.eye;
-        if view.length_squared() == 0.0 {
+        let view = (c.target - c.eye).as_vec3();
+        if view.length_squared() == 0.0 || !view.is_finite() {
             return Err("camera eye and target coincide: the view direction is undefined".into());
         }
         if view.normalize().cross(c.up.normalize_or_zero()).length() < 1e-6 {
@@ -100,8 +101,8 @@ impl TryFrom<CameraRaw> for CameraDesc {
         }
         if c.resolution.0 == 0 || c.resolution.1 == 0 {
             return Err(format!(
-                "camera resolution must be at least 1×1, got {:?}",
-                c.resolution
+                "camera resolution must be at least 1×1, got {}×{}",
+                c.resolution.0, c.resolution.1
             ));
         }
         if let Lens::ThinLens {
@@ -202,7 +203,8 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
                 for c in k.to_array() {
                     if !(c >= 0.0 && c.is_finite()) {
                         return Err(format!(
-                            "RoughConductor k must be ≥ 0 and finite per channel, got {k:?}"
+                            "RoughConductor k must be ≥ 0 and finite per channel, got {}",
+                            fmt_rgb(k)
                         ));
                     }
                 }
@@ -224,7 +226,9 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
                 unit_rgb("Phong ks", ks)?;
                 if (kd + ks).max_component() > 1.0 {
                     return Err(format!(
-                        "Phong kd + ks must be ≤ 1 per channel for energy conservation, got kd {kd:?} + ks {ks:?}"
+                        "Phong kd + ks must be ≤ 1 per channel for energy conservation, got kd {} + ks {}",
+                        fmt_rgb(kd),
+                        fmt_rgb(ks)
                     ));
                 }
                 if !(exponent >= 0.0 && exponent.is_finite()) {
@@ -283,7 +287,10 @@ impl TryFrom<ShapeRaw> for ShapeDesc {
         if matches!(s.geometry.0, GeometryRaw::Sphere { .. }) {
             let v = s.transform.scale;
             if v.x != v.y || v.y != v.z {
-                return Err(format!("a Sphere accepts only a uniform scale, got {v:?}"));
+                return Err(format!(
+                    "a Sphere accepts only a uniform scale, got {}",
+                    fmt3(v.as_dvec3())
+                ));
             }
         }
         Ok(ShapeDesc {
@@ -306,7 +313,7 @@ pub enum GeometryRaw {
     /// Inline triangle mesh: `positions`, `indices` as triples (counter-clockwise = front, the side the
     /// normal cross(p1 − p0, p2 − p0) points to), optional per-vertex shading `normals`.
     Mesh {
-        positions: Vec<Vec3>,
+        positions: Vec<DVec3>,
         indices: Vec<(u32, u32, u32)>,
         #[serde(default)]
         normals: Option<Vec<Vec3>>,
@@ -320,15 +327,17 @@ pub enum GeometryRaw {
     },
     /// Parallelogram `corner + a·edge1 + b·edge2`, a, b ∈ [0, 1]; front side along edge1 × edge2.
     Quad {
-        corner: Vec3,
+        corner: DVec3,
         edge1: Vec3,
         edge2: Vec3,
     },
     /// Parallelogram by its four corners in order around the boundary; front side along
     /// (p1 − p0) × (p3 − p0). The corners must form a parallelogram.
-    QuadCorners { corners: (Vec3, Vec3, Vec3, Vec3) },
+    QuadCorners {
+        corners: (DVec3, DVec3, DVec3, DVec3),
+    },
     /// Analytic sphere; the normal points outward.
-    Sphere { center: Vec3, radius: f32 },
+    Sphere { center: DVec3, radius: f32 },
     /// Axis-aligned box centred at the origin with the given half-extents (> 0), outward normals;
     /// place it with `transform`.
     Cuboid { half_extents: Vec3 },
@@ -353,7 +362,7 @@ impl GeometryDesc {
                             positions[b as usize],
                             positions[c as usize],
                         );
-                        0.5 * (b - a).cross(c - a).length()
+                        0.5 * (b - a).cross(c - a).length() as f32
                     })
                     .sum(),
             ),
@@ -361,7 +370,7 @@ impl GeometryDesc {
             GeometryRaw::Quad { edge1, edge2, .. } => Some(edge1.cross(*edge2).length()),
             GeometryRaw::QuadCorners {
                 corners: (p0, p1, _, p3),
-            } => Some((*p1 - *p0).cross(*p3 - *p0).length()),
+            } => Some((*p1 - *p0).cross(*p3 - *p0).length() as f32),
             GeometryRaw::Sphere { radius, .. } => {
                 Some(4.0 * std::f32::consts::PI * radius * radius)
             }
@@ -382,7 +391,7 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
                 normals,
             } => {
                 for (i, p) in positions.iter().enumerate() {
-                    finite_vec(&format!("Mesh position {i}"), *p)?;
+                    finite_dvec(&format!("Mesh position {i}"), *p)?;
                 }
                 if indices.is_empty() {
                     return Err("Mesh has no triangles".into());
@@ -423,7 +432,7 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
                 edge1,
                 edge2,
             } => {
-                finite_vec("Quad corner", *corner)?;
+                finite_dvec("Quad corner", *corner)?;
                 finite_vec("Quad edge1", *edge1)?;
                 finite_vec("Quad edge2", *edge2)?;
             }
@@ -431,7 +440,7 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
                 corners: (p0, p1, p2, p3),
             } => {
                 for (i, p) in [p0, p1, p2, p3].into_iter().enumerate() {
-                    finite_vec(&format!("QuadCorners corner {i}"), *p)?;
+                    finite_dvec(&format!("QuadCorners corner {i}"), *p)?;
                 }
                 let scale = (*p1 - *p0).length().max((*p3 - *p0).length());
                 if (*p1 + *p3 - *p0 - *p2).length() > 1e-4 * scale {
@@ -442,7 +451,7 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
                 }
             }
             GeometryRaw::Sphere { center, radius } => {
-                finite_vec("Sphere center", *center)?;
+                finite_dvec("Sphere center", *center)?;
                 if !(*radius > 0.0 && radius.is_finite()) {
                     return Err(format!("Sphere radius must be > 0, got {radius}"));
                 }
@@ -451,7 +460,8 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
                 finite_vec("Cuboid half_extents", *half_extents)?;
                 if half_extents.min_element() <= 0.0 {
                     return Err(format!(
-                        "Cuboid half_extents must all be > 0, got {half_extents:?}"
+                        "Cuboid half_extents must all be > 0, got {}",
+                        fmt3(half_extents.as_dvec3())
                     ));
                 }
             }
@@ -496,7 +506,7 @@ impl TryFrom<EmissionRaw> for EmissionDesc {
 pub struct TransformDesc {
     pub scale: Vec3,
     pub rotate: Vec<RotationDesc>,
-    pub translate: Vec3,
+    pub translate: DVec3,
 }
 
 impl Default for TransformDesc {
@@ -504,7 +514,7 @@ impl Default for TransformDesc {
         TransformDesc {
             scale: Vec3::ONE,
             rotate: Vec::new(),
-            translate: Vec3::ZERO,
+            translate: DVec3::ZERO,
         }
     }
 }
@@ -520,7 +530,7 @@ struct TransformRaw {
     rotate: Vec<RotationDesc>,
     /// Translation. Default (0, 0, 0).
     #[serde(default)]
-    translate: Vec3,
+    translate: DVec3,
 }
 
 fn one() -> Vec3 {
@@ -539,11 +549,11 @@ impl TryFrom<TransformRaw> for TransformDesc {
     type Error = String;
     fn try_from(t: TransformRaw) -> Result<Self, String> {
         finite_vec("transform scale", t.scale)?;
-        finite_vec("transform translate", t.translate)?;
+        finite_dvec("transform translate", t.translate)?;
         if t.scale.x == 0.0 || t.scale.y == 0.0 || t.scale.z == 0.0 {
             return Err(format!(
-                "transform scale must be non-zero on every axis, got {:?}",
-                t.scale
+                "transform scale must be non-zero on every axis, got {}",
+                fmt3(t.scale.as_dvec3())
             ));
         }
         for r in &t.rotate {
@@ -569,13 +579,13 @@ pub struct LightDesc(pub LightRaw);
 #[serde(deny_unknown_fields, rename = "Light")]
 pub enum LightRaw {
     /// Isotropic point light with radiant `intensity` (W·sr⁻¹, ≥ 0).
-    Point { position: Vec3, intensity: Rgb },
+    Point { position: DVec3, intensity: Rgb },
     /// Spot light at `position` aimed at `target`: full `intensity` inside `falloff_start` degrees of
     /// the axis, smoothstep falloff to zero at `cone_angle` degrees (pbrt-v4 §12.2.1).
     /// 0 < falloff_start ≤ cone_angle ≤ 180; default falloff_start = cone_angle (a hard edge).
     Spot {
-        position: Vec3,
-        target: Vec3,
+        position: DVec3,
+        target: DVec3,
         intensity: Rgb,
         cone_angle: f32,
         #[serde(default)]
@@ -593,7 +603,7 @@ impl TryFrom<LightRaw> for LightDesc {
                 position,
                 intensity,
             } => {
-                finite_vec("Point position", position)?;
+                finite_dvec("Point position", position)?;
                 non_negative_rgb("Point intensity", intensity)?;
             }
             LightRaw::Spot {
@@ -603,8 +613,8 @@ impl TryFrom<LightRaw> for LightDesc {
                 cone_angle,
                 falloff_start,
             } => {
-                finite_vec("Spot position", position)?;
-                finite_vec("Spot target", target)?;
+                finite_dvec("Spot position", position)?;
+                finite_dvec("Spot target", target)?;
                 if (target - position).length_squared() == 0.0 {
                     return Err("Spot target equals its position: the axis is undefined".into());
                 }
@@ -630,11 +640,31 @@ impl TryFrom<LightRaw> for LightDesc {
 }
 
 fn finite_vec(what: &str, v: Vec3) -> Result<(), String> {
+    finite_dvec(what, v.as_dvec3())
+}
+
+fn finite_dvec(what: &str, v: DVec3) -> Result<(), String> {
     if v.is_finite() {
         Ok(())
     } else {
-        Err(format!("{what} must be finite, got {v:?}"))
+        Err(format!("{what} must be finite, got {}", fmt3(v)))
     }
+}
+
+/// A triple as the file writes it: `(1, NaN, 0.5)`.
+pub(crate) fn fmt3(v: DVec3) -> String {
+    let f = |x: f64| {
+        if x.is_nan() {
+            "NaN".to_string()
+        } else {
+            format!("{x}")
+        }
+    };
+    format!("({}, {}, {})", f(v.x), f(v.y), f(v.z))
+}
+
+fn fmt_rgb(c: Rgb) -> String {
+    fmt3(glam::DVec3::new(c.r as f64, c.g as f64, c.b as f64))
 }
 
 fn positive(what: &str, x: f32) -> Result<(), String> {
@@ -650,7 +680,8 @@ fn unit_rgb(what: &str, c: Rgb) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!(
-            "{what} must be in [0, 1] per channel (a surface cannot reflect more than it receives), got {c:?}"
+            "{what} must be in [0, 1] per channel (a surface cannot reflect more than it receives), got {}",
+            fmt_rgb(c)
         ))
     }
 }
@@ -660,7 +691,8 @@ fn non_negative_rgb(what: &str, c: Rgb) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!(
-            "{what} must be ≥ 0 and finite per channel, got {c:?}"
+            "{what} must be ≥ 0 and finite per channel, got {}",
+            fmt_rgb(c)
         ))
     }
 }

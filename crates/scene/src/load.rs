@@ -1,12 +1,19 @@
 //! From a RON file to a [`Scene`]: parse, resolve material names and mesh files, apply transforms,
 //! build the BVH and the lights.
+//!
+//! Positions are read and transformed in f64, and the whole scene is then moved so that the centre
+//! of its bounding box (geometry, camera and lights) is the origin before anything is rounded to
+//! the f32 the renderer works in: a scene translated far from the world origin renders like the
+//! original, because f32 spacing is set by the coordinates' size after the move — the scene's
+//! extent — not by its distance from the world origin (pbrt-v4 renders in camera-relative space for
+//! the same reason). `Scene::origin` records where that centre is in the file's coordinates.
 
 use crate::desc::{
     GeometryDesc, GeometryRaw, LightDesc, LightRaw, MaterialDesc, MaterialRaw, Roughness,
     SceneDesc, TransformDesc,
 };
 use crate::{Camera, Light, Scene, SceneError};
-use glam::{Mat3, Quat, Vec2, Vec3};
+use glam::{DMat3, DQuat, DVec3, Mat3, Vec2, Vec3};
 use lightlab_geometry::{Accel, Geometry, NO_LIGHT, Shape, Sphere, TriangleMesh};
 use lightlab_materials::Bsdf;
 use std::path::Path;
@@ -42,13 +49,22 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
             "the scene is empty: it has no shapes and no lights".into(),
         ));
     }
-    let camera = Camera::new(&desc.camera);
     let material_names: Vec<String> = desc.materials.iter().map(|(n, _)| n.clone()).collect();
     let materials: Vec<Bsdf> = desc.materials.iter().map(|(_, m)| bsdf(m)).collect();
     let base = path.parent().unwrap_or(Path::new("."));
 
-    let mut shapes = Vec::with_capacity(desc.shapes.len());
-    let mut lights = Vec::new();
+    // World-space geometry in f64, then the scene's centre.
+    let mut world = Vec::with_capacity(desc.shapes.len());
+    let mut bounds = Bounds::default();
+    bounds.add(desc.camera.eye);
+    for l in &desc.lights {
+        match l.0 {
+            LightRaw::Point { position, .. } | LightRaw::Spot { position, .. } => {
+                bounds.add(position)
+            }
+            LightRaw::Environment { .. } => {}
+        }
+    }
     for (i, s) in desc.shapes.iter().enumerate() {
         let material = material_names
             .iter()
@@ -69,9 +85,28 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
                     ),
                 )
             })? as u32;
-        let geometry = geometry(&s.geometry, &s.transform, base).map_err(|(needle, msg)| {
+        let g = geometry(&s.geometry, &s.transform, base).map_err(|(needle, msg)| {
             SceneError::at(path, text, &needle, format!("shape {i}: {msg}"))
         })?;
+        g.extend(&mut bounds);
+        world.push((material, g));
+    }
+    let origin = bounds.centre();
+
+    let camera = Camera::new(&desc.camera, origin);
+    let mut shapes = Vec::with_capacity(desc.shapes.len());
+    let mut lights = Vec::new();
+    let mut features = Features::default();
+    for (i, ((material, g), s)) in world.into_iter().zip(&desc.shapes).enumerate() {
+        let needle = match &s.geometry.0 {
+            GeometryRaw::Obj { file, .. } => format!("\"{file}\""),
+            GeometryRaw::Mesh { .. } => "Mesh".into(),
+            _ => "geometry".into(),
+        };
+        features.add(&g, origin);
+        let geometry = g
+            .into_render_space(origin)
+            .map_err(|msg| SceneError::at(path, text, &needle, format!("shape {i}: {msg}")))?;
         let light = match s.emission {
             Some(e) => {
                 lights.push(Light::Area {
@@ -102,14 +137,94 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         }
         shapes.push(shape);
     }
-    lights.extend(desc.lights.iter().map(light));
-    Ok(Scene::new(
+    lights.extend(desc.lights.iter().map(|l| light(l, origin)));
+    let mut scene = Scene::new(
         camera,
         Accel::new(shapes),
         materials,
         material_names,
         lights,
-    ))
+    );
+    scene.origin = origin;
+    scene.warnings.extend(features.warning(path));
+    Ok(scene)
+}
+
+/// The bounding box of everything placed in the scene, in f64.
+#[derive(Default)]
+struct Bounds(Option<(DVec3, DVec3)>);
+
+impl Bounds {
+    fn add(&mut self, p: DVec3) {
+        self.0 = Some(match self.0 {
+            None => (p, p),
+            Some((lo, hi)) => (lo.min(p), hi.max(p)),
+        });
+    }
+
+    /// The centre of the box (the origin of render space).
+    fn centre(&self) -> DVec3 {
+        self.0.map_or(DVec3::ZERO, |(lo, hi)| (lo + hi) * 0.5)
+    }
+}
+
+/// What f32 render space must resolve: the largest coordinate and the smallest feature (triangle
+/// edge or sphere radius).
+#[derive(Default)]
+struct Features {
+    largest: f64,
+    smallest: f64,
+}
+
+/// A feature spanning fewer float steps of the largest coordinate than this is reported.
+const MIN_STEPS: f64 = 1024.0;
+
+impl Features {
+    fn add(&mut self, g: &WorldGeometry, origin: DVec3) {
+        if self.smallest == 0.0 {
+            self.smallest = f64::INFINITY;
+        }
+        match g {
+            WorldGeometry::Mesh {
+                positions, indices, ..
+            } => {
+                for p in positions {
+                    self.largest = self.largest.max((*p - origin).abs().max_element());
+                }
+                for t in indices {
+                    for k in 0..3 {
+                        let e =
+                            positions[t[k] as usize].distance(positions[t[(k + 1) % 3] as usize]);
+                        if e > 0.0 {
+                            self.smallest = self.smallest.min(e);
+                        }
+                    }
+                }
+            }
+            WorldGeometry::Sphere { center, radius } => {
+                let r = *radius as f64;
+                self.largest = self.largest.max((*center - origin).abs().max_element() + r);
+                self.smallest = self.smallest.min(r);
+            }
+        }
+    }
+
+    /// A warning when the smallest feature spans fewer than `MIN_STEPS` f32 steps at the largest
+    /// coordinate of render space (a tiny object in a huge scene): f32 positions then quantise it.
+    fn warning(&self, path: &Path) -> Option<String> {
+        let step = self.largest * f32::EPSILON as f64;
+        (self.smallest.is_finite() && step > 0.0 && self.smallest < MIN_STEPS * step).then(|| {
+            format!(
+                "{}: the smallest feature ({:.3e}) is only {:.0} float steps of the scene's extent \
+                 ({:.3e} from its centre): f32 positions will quantise it visibly; scale or split \
+                 the scene so that its parts are within about 10⁴ of each other in size",
+                path.display(),
+                self.smallest,
+                self.smallest / step,
+                self.largest
+            )
+        })
+    }
 }
 
 fn bsdf(m: &MaterialDesc) -> Bsdf {
@@ -134,13 +249,13 @@ fn bsdf(m: &MaterialDesc) -> Bsdf {
     }
 }
 
-fn light(l: &LightDesc) -> Light {
+fn light(l: &LightDesc, origin: DVec3) -> Light {
     match l.0 {
         LightRaw::Point {
             position,
             intensity,
         } => Light::Point {
-            position,
+            position: (position - origin).as_vec3(),
             intensity,
         },
         LightRaw::Spot {
@@ -150,8 +265,8 @@ fn light(l: &LightDesc) -> Light {
             cone_angle,
             falloff_start,
         } => Light::Spot {
-            position,
-            axis: (target - position).normalize(),
+            position: (position - origin).as_vec3(),
+            axis: (target - position).normalize().as_vec3(),
             intensity,
             cos_total: cone_angle.to_radians().cos(),
             cos_falloff_start: falloff_start.unwrap_or(cone_angle).to_radians().cos(),
@@ -160,26 +275,29 @@ fn light(l: &LightDesc) -> Light {
     }
 }
 
-/// An affine transform: p ↦ linear·p + translate, normals by the inverse transpose.
+/// An affine transform: p ↦ linear·p + translate (in f64), normals by the inverse transpose.
 struct Affine {
-    linear: Mat3,
+    linear: DMat3,
     normal: Mat3,
-    translate: Vec3,
+    translate: DVec3,
 }
 
 impl Affine {
     fn new(t: &TransformDesc) -> Affine {
-        let rotation = t.rotate.iter().fold(Quat::IDENTITY, |q, r| {
-            Quat::from_axis_angle(r.axis.normalize(), r.degrees.to_radians()) * q
+        let rotation = t.rotate.iter().fold(DQuat::IDENTITY, |q, r| {
+            DQuat::from_axis_angle(
+                r.axis.as_dvec3().normalize(),
+                (r.degrees as f64).to_radians(),
+            ) * q
         });
-        let linear = Mat3::from_quat(rotation) * Mat3::from_diagonal(t.scale);
+        let linear = DMat3::from_quat(rotation) * DMat3::from_diagonal(t.scale.as_dvec3());
         Affine {
             linear,
-            normal: linear.inverse().transpose(),
+            normal: linear.inverse().transpose().as_mat3(),
             translate: t.translate,
         }
     }
-    fn point(&self, p: Vec3) -> Vec3 {
+    fn point(&self, p: DVec3) -> DVec3 {
         self.linear * p + self.translate
     }
     fn normal(&self, n: Vec3) -> Vec3 {
@@ -192,31 +310,73 @@ impl Affine {
     }
 }
 
+/// A shape's geometry in world space, positions in f64.
+enum WorldGeometry {
+    Mesh {
+        positions: Vec<DVec3>,
+        normals: Option<Vec<Vec3>>,
+        indices: Vec<[u32; 3]>,
+    },
+    Sphere {
+        center: DVec3,
+        radius: f32,
+    },
+}
+
+impl WorldGeometry {
+    fn extend(&self, bounds: &mut Bounds) {
+        match self {
+            WorldGeometry::Mesh { positions, .. } => positions.iter().for_each(|&p| bounds.add(p)),
+            WorldGeometry::Sphere { center, radius } => {
+                bounds.add(*center - *radius as f64);
+                bounds.add(*center + *radius as f64);
+            }
+        }
+    }
+
+    /// The geometry in render space: moved by −`origin`, then rounded to f32.
+    fn into_render_space(self, origin: DVec3) -> Result<Geometry, String> {
+        match self {
+            WorldGeometry::Mesh {
+                positions,
+                normals,
+                indices,
+            } => TriangleMesh::new(
+                positions
+                    .into_iter()
+                    .map(|p| (p - origin).as_vec3())
+                    .collect(),
+                normals,
+                None,
+                indices,
+            )
+            .map(Geometry::Mesh)
+            .map_err(|e| e.to_string()),
+            WorldGeometry::Sphere { center, radius } => Ok(Geometry::Sphere(Sphere {
+                center: (center - origin).as_vec3(),
+                radius,
+            })),
+        }
+    }
+}
+
 /// Builds the geometry in world space; on error returns (text to locate, message).
 fn geometry(
     g: &GeometryDesc,
     t: &TransformDesc,
     base: &Path,
-) -> Result<Geometry, (String, String)> {
+) -> Result<WorldGeometry, (String, String)> {
     let xf = Affine::new(t);
-    let mesh = |positions: Vec<Vec3>, indices: Vec<[u32; 3]>, normals: Option<Vec<Vec3>>| {
+    let mesh = |positions: Vec<DVec3>, indices: Vec<[u32; 3]>, normals: Option<Vec<Vec3>>| {
         let flip = xf.flips();
-        TriangleMesh::new(
-            positions.into_iter().map(|p| xf.point(p)).collect(),
-            normals.map(|ns| ns.into_iter().map(|n| xf.normal(n)).collect()),
-            None,
-            indices
+        WorldGeometry::Mesh {
+            positions: positions.into_iter().map(|p| xf.point(p)).collect(),
+            normals: normals.map(|ns| ns.into_iter().map(|n| xf.normal(n)).collect()),
+            indices: indices
                 .into_iter()
                 .map(|[a, b, c]| if flip { [a, c, b] } else { [a, b, c] })
                 .collect(),
-        )
-        .map(Geometry::Mesh)
-        .map_err(|e| e.to_string())
-    };
-    let needle = match &g.0 {
-        GeometryRaw::Obj { file, .. } => format!("\"{file}\""),
-        GeometryRaw::Mesh { .. } => "Mesh".into(),
-        _ => "geometry".into(),
+        }
     };
     Ok(match &g.0 {
         GeometryRaw::Mesh {
@@ -227,28 +387,28 @@ fn geometry(
             positions.clone(),
             indices.iter().map(|&(a, b, c)| [a, b, c]).collect(),
             normals.clone(),
-        )
-        .map_err(|m| (needle, m))?,
+        ),
         GeometryRaw::Obj { file, normals } => {
             let (positions, indices, ns) =
                 load_obj(&base.join(file), *normals).map_err(|m| (format!("\"{file}\""), m))?;
-            mesh(positions, indices, ns).map_err(|m| (needle, m))?
+            mesh(positions, indices, ns)
         }
         GeometryRaw::Quad {
             corner,
             edge1,
             edge2,
-        } => quad_mesh(*corner, *edge1, *edge2, &mesh).map_err(|m| (needle, m))?,
+        } => quad_mesh(*corner, edge1.as_dvec3(), edge2.as_dvec3(), &mesh),
         GeometryRaw::QuadCorners {
             corners: (p0, p1, _, p3),
-        } => quad_mesh(*p0, *p1 - *p0, *p3 - *p0, &mesh).map_err(|m| (needle, m))?,
+        } => quad_mesh(*p0, *p1 - *p0, *p3 - *p0, &mesh),
         GeometryRaw::Cuboid { half_extents: h } => {
+            let h = h.as_dvec3();
             let mut positions = Vec::with_capacity(24);
             let mut indices = Vec::with_capacity(12);
             for a in 0..3 {
                 let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-                let axis = |i: usize| Vec3::AXES[i] * h[i];
-                for s in [1.0f32, -1.0] {
+                let axis = |i: usize| DVec3::AXES[i] * h[i];
+                for s in [1.0f64, -1.0] {
                     // e_b × e_c = e_a, so (edge1, edge2) = (b, c) faces +a; swap them for the −a face.
                     let (e1, e2) = if s > 0.0 {
                         (axis(b) * 2.0, axis(c) * 2.0)
@@ -261,19 +421,18 @@ fn geometry(
                     indices.extend([[k, k + 1, k + 2], [k, k + 2, k + 3]]);
                 }
             }
-            mesh(positions, indices, None).map_err(|m| (needle, m))?
+            mesh(positions, indices, None)
         }
-        GeometryRaw::Sphere { center, radius } => Geometry::Sphere(Sphere {
+        GeometryRaw::Sphere { center, radius } => WorldGeometry::Sphere {
             center: xf.point(*center),
             radius: radius * t.scale.x.abs(),
-        }),
+        },
     })
 }
 
-type MeshBuilder<'a> =
-    &'a dyn Fn(Vec<Vec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>) -> Result<Geometry, String>;
+type MeshBuilder<'a> = &'a dyn Fn(Vec<DVec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>) -> WorldGeometry;
 
-fn quad_mesh(corner: Vec3, e1: Vec3, e2: Vec3, mesh: MeshBuilder) -> Result<Geometry, String> {
+fn quad_mesh(corner: DVec3, e1: DVec3, e2: DVec3, mesh: MeshBuilder) -> WorldGeometry {
     mesh(
         vec![corner, corner + e1, corner + e1 + e2, corner + e2],
         vec![[0, 1, 2], [0, 2, 3]],
@@ -281,7 +440,7 @@ fn quad_mesh(corner: Vec3, e1: Vec3, e2: Vec3, mesh: MeshBuilder) -> Result<Geom
     )
 }
 
-type ObjMesh = (Vec<Vec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>);
+type ObjMesh = (Vec<DVec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>);
 
 /// Reads every object of an OBJ file into one triangle mesh.
 fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String> {
@@ -300,7 +459,7 @@ fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String> {
         positions.extend(
             mesh.positions
                 .chunks_exact(3)
-                .map(|p| Vec3::new(p[0], p[1], p[2])),
+                .map(|p| DVec3::new(p[0], p[1], p[2])),
         );
         indices.extend(
             mesh.indices
@@ -311,7 +470,7 @@ fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String> {
             normals.extend(
                 mesh.normals
                     .chunks_exact(3)
-                    .map(|n| Vec3::new(n[0], n[1], n[2])),
+                    .map(|n| Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32)),
             );
         } else {
             all_have_normals = false;

@@ -22,6 +22,12 @@ pub struct Scene {
     /// Bounding sphere of the geometry.
     pub center: Vec3,
     pub radius: f32,
+    /// Where render space's origin lies in the scene file's coordinates: every position the
+    /// renderer sees is the file's minus this (computed in f64 when loading).
+    pub origin: glam::DVec3,
+    /// What loading noticed and the user should know (e.g. features too small for f32 to
+    /// resolve); printed by the command line.
+    pub warnings: Vec<String>,
 }
 
 impl Scene {
@@ -61,6 +67,8 @@ impl Scene {
             environment,
             center,
             radius,
+            origin: glam::DVec3::ZERO,
+            warnings: Vec::new(),
         }
     }
 

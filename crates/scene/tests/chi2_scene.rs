@@ -236,14 +236,17 @@ fn chi2_point_and_spot_light_sample_le() {
 
 /// A 16:9 camera with a 50° vertical field of view, looking along a direction off every axis.
 fn camera(lens: Lens) -> Camera {
-    Camera::new(&CameraDesc {
-        eye: Vec3::new(1.0, 2.0, 3.0),
-        target: Vec3::new(-0.5, 0.2, 0.4),
-        up: Vec3::Y,
-        fov: 50.0,
-        resolution: (32, 18),
-        lens,
-    })
+    Camera::new(
+        &CameraDesc {
+            eye: glam::DVec3::new(1.0, 2.0, 3.0),
+            target: glam::DVec3::new(-0.5, 0.2, 0.4),
+            up: Vec3::Y,
+            fov: 50.0,
+            resolution: (32, 18),
+            lens,
+        },
+        glam::DVec3::ZERO,
+    )
 }
 
 /// Direction in the camera frame (right, up, forward), where the cap around +z is the view cone.

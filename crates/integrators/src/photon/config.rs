@@ -43,7 +43,43 @@ pub enum Gather {
     Nearest { k: u32, max_radius: Length },
 }
 
+/// The smallest gather radius the scene's f32 positions resolve: 256 float steps at its largest
+/// coordinate, where photon positions are spaced by one step, so that a disk's area (and the hash
+/// grid's cell index) is off by less than 1 % from rounding. Below it a density estimate loses
+/// photons to rounding rather than to the radius.
+pub fn smallest_radius(scene: &lightlab_scene::Scene) -> f32 {
+    let extent = scene.center.abs().max_element() + scene.radius;
+    256.0 * f32::EPSILON * extent
+}
+
+/// Checks that a gather radius of `what` (`length`) is one the scene can resolve.
+pub(crate) fn check_radius(
+    what: &str,
+    length: Length,
+    scene: &lightlab_scene::Scene,
+) -> Result<(), String> {
+    let (r, min) = (length.resolve(scene.radius), smallest_radius(scene));
+    if r >= min {
+        return Ok(());
+    }
+    Err(format!(
+        "{what} {length:?} is {r:.3e} in this scene, below the smallest radius its f32 positions \
+         resolve, {min:.3e} (256 float steps at its extent {:.3e}): photons would be lost to \
+         rounding; use at least Absolute({min:.2e}) or Relative({:.2e})",
+        scene.center.abs().max_element() + scene.radius,
+        min / scene.radius
+    ))
+}
+
 impl Gather {
+    /// The radius that bounds this search.
+    pub fn radius(self) -> Length {
+        match self {
+            Gather::Radius(r) => r,
+            Gather::Nearest { max_radius, .. } => max_radius,
+        }
+    }
+
     pub fn search(self, scene_radius: f32) -> Search {
         match self {
             Gather::Radius(r) => {

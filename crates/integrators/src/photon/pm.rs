@@ -207,6 +207,12 @@ struct Maps {
 }
 
 impl Integrator for PhotonMapper {
+    fn check_scene(&self, scene: &Scene) -> Result<(), String> {
+        let c = &self.config;
+        super::config::check_radius("gather radius", c.gather.radius(), scene)?;
+        super::config::check_radius("caustic_gather radius", c.caustic_gather.radius(), scene)
+    }
+
     fn render_passes(
         &self,
         scene: &Scene,

@@ -359,4 +359,8 @@ impl Integrator for Progressive {
     ) -> RenderOutput {
         self.run(scene, budget, seed, progress, on_pass)
     }
+
+    fn check_scene(&self, scene: &Scene) -> Result<(), String> {
+        super::config::check_radius("radius", self.config.radius, scene)
+    }
 }
