@@ -55,6 +55,12 @@ pub trait Integrator: Send + Sync {
         false
     }
 
+    /// The sample count up to `n` that the sampler handles best (a time budget's calibrated count
+    /// is rounded down to it).
+    fn best_sample_count(&self, n: u32) -> u32 {
+        n
+    }
+
     /// Whether the integrator, as configured, can render `scene` (an error says why not).
     fn check_scene(&self, _scene: &Scene) -> Result<(), String> {
         Ok(())
@@ -65,7 +71,8 @@ pub trait Integrator: Send + Sync {
     /// needs its sample count up front, a calibrated pilot (renders of 1, 2, 4, … samples per
     /// pixel with another seed, until one takes 2 % of the budget or all 4 %) measures the time
     /// per sample, and the render is `Budget::Samples(N)` with the N that fills the rest of the
-    /// budget. The pilot's time counts in `wall_seconds` (and is reported as `pilot_seconds`).
+    /// budget, rounded down to a count the sampler stratifies well (`best_sample_count`: no
+    /// N-rooks fallback for `Stratified`). The pilot's time counts in `wall_seconds` (and is reported as `pilot_seconds`).
     fn render(
         &self,
         scene: &Scene,
@@ -99,6 +106,7 @@ pub trait Integrator: Send + Sync {
                 let n = ((seconds - pilot) / per_sample.max(1e-12))
                     .round()
                     .clamp(1.0, u32::MAX as f64) as u32;
+                let n = self.best_sample_count(n);
                 let mut out =
                     self.render_passes(scene, &Budget::Samples(n), seed, progress, &mut |_, _| {
                         true

@@ -263,6 +263,10 @@ impl Integrator for PathTracer {
         self.config.sampler.needs_sample_count()
     }
 
+    fn best_sample_count(&self, n: u32) -> u32 {
+        self.config.sampler.best_count_up_to(n)
+    }
+
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {
         if !self.samples_lights() && scene.lights.iter().any(|l| l.is_delta()) {
             return Err(format!(

@@ -67,6 +67,19 @@ impl SamplerConfig {
         )
     }
 
+    /// The sample count at most `n` (and at least 1) this sampler stratifies best: for
+    /// `Stratified`, the largest whose 2D pairs get a proper nx × ny grid rather than the N-rooks
+    /// fallback (a prime or elongated count); `n` itself for the others.
+    pub fn best_count_up_to(&self, n: u32) -> u32 {
+        match self {
+            SamplerConfig::Stratified => (1..=n.max(1))
+                .rev()
+                .find(|&m| !crate::Stratified::new(m).is_n_rooks())
+                .unwrap_or(1),
+            _ => n.max(1),
+        }
+    }
+
     /// Whether the samples of a pixel are independent (only `Independent`): then s²/n over them
     /// estimates the variance of the pixel mean. Stratified and low-discrepancy samples are
     /// negatively correlated, and s²/n overestimates it.

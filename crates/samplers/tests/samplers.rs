@@ -568,3 +568,20 @@ fn config_names_round_trip_through_ron() {
     }
     assert!(ron::from_str::<SamplerConfig>("Sobel").is_err());
 }
+
+/// A time budget's sample count is rounded to one the stratified sampler grids properly: the
+/// largest count up to n without the N-rooks fallback (a prime count such as 97 has none).
+#[test]
+fn best_stratified_count_avoids_the_n_rooks_fallback() {
+    use lightlab_samplers::{SamplerConfig, Stratified};
+    assert_eq!(SamplerConfig::Stratified.best_count_up_to(97), 96);
+    assert_eq!(SamplerConfig::Stratified.best_count_up_to(64), 64);
+    assert_eq!(SamplerConfig::Sobol.best_count_up_to(97), 97);
+    for n in 1..300 {
+        let m = SamplerConfig::Stratified.best_count_up_to(n);
+        assert!(
+            m <= n && (m == 1 || !Stratified::new(m).is_n_rooks()),
+            "{n} → {m}"
+        );
+    }
+}
