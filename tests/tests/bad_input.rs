@@ -253,3 +253,82 @@ fn settings_that_cannot_render_the_scene_are_refused() {
         assert!(integrator.check_scene(&scene).is_ok(), "{ok}");
     }
 }
+
+/// Messages are plain: values as the file writes them, not Rust's debug text.
+#[test]
+fn messages_show_values_as_written() {
+    let e = error_of("materials: { \"a\": Diffuse(albedo: (0.5, -0.6, 0.5)) },");
+    assert!(
+        e.contains("(0.5, -0.6, 0.5)") && !e.contains("Rgb {"),
+        "{e}"
+    );
+    let e = error_of(&format!(
+        "{WHITE}\nshapes: [ Shape(geometry: Mesh(positions: [(0, 0, 0), (1, NaN, 0), (0, 1, 0)], indices: [(0, 1, 2)]), material: \"white\") ]"
+    ));
+    assert!(e.contains("(1, NaN, 0)") && !e.contains("DVec3"), "{e}");
+}
+
+/// A truncated file says so; a byte-order mark is accepted.
+#[test]
+fn truncated_files_and_byte_order_marks() {
+    let full = format!("Scene(\n{CAMERA},\n{WHITE}\n{LIGHT}\n)");
+    let cut = &full[..full.len() - 30];
+    let e = match parse_scene(cut, Path::new("scenes/cut.ron")) {
+        Ok(_) => panic!("accepted a truncated scene"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.starts_with("scenes/cut.ron:") && e.contains("unexpected end of file"),
+        "{e}"
+    );
+    assert!(parse_scene(&format!("\u{feff}{full}"), Path::new("bom.ron")).is_ok());
+}
+
+/// Mesh files: a directory is not a mesh, and a malformed OBJ line is reported with its number.
+#[test]
+fn mesh_file_errors_name_the_problem() {
+    let dir = std::env::temp_dir().join(format!("lightlab-obj-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("meshes")).unwrap();
+    let scene_at = |file: &str| {
+        format!(
+            "Scene(\n{CAMERA},\n{WHITE}\nshapes: [ Shape(geometry: Obj(file: \"{file}\"), material: \"white\") ],\n{LIGHT}\n)"
+        )
+    };
+    let load = |file: &str| match parse_scene(&scene_at(file), &dir.join("s.ron")) {
+        Ok(_) => panic!("{file} accepted"),
+        Err(e) => e.to_string(),
+    };
+    let e = load("meshes");
+    assert!(
+        e.contains("is a directory") && !e.contains("does not exist"),
+        "{e}"
+    );
+    for (name, body, line, words) in [
+        (
+            "v.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 x 0\nf 1 2 3\n",
+            3,
+            "three numbers",
+        ),
+        (
+            "f.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+            4,
+            "at least three",
+        ),
+        (
+            "i.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\n# a face\nf 1 2 9\n",
+            5,
+            "vertex 9",
+        ),
+    ] {
+        std::fs::write(dir.join("meshes").join(name), body).unwrap();
+        let e = load(&format!("meshes/{name}"));
+        assert!(
+            e.contains(&format!("{name}:{line}:")) && e.contains(words),
+            "{name}: {e}"
+        );
+    }
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -1,11 +1,12 @@
 //! `lightlab run`, `lightlab plot` and `lightlab merge`: experiments from the command line.
 
-use crate::progress::Bar;
+use crate::progress::{Bar, Unit};
 use clap::Args;
 use indicatif::MultiProgress;
 use lightlab_experiments::desc::load_experiment;
 use lightlab_experiments::report::plot_from_csv;
 use lightlab_experiments::runner::{RunOptions, merge, output_dir, run_experiment};
+use std::io::IsTerminal;
 use std::path::PathBuf;
 
 /// Run an experiment (a RON sweep file, see experiments/README.md): render every run that has not
@@ -26,6 +27,15 @@ pub struct RunArgs {
     /// Worker threads (≥ 1). Default: all cores.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     threads: Option<u32>,
+    /// Directory of the cached references (default RESULTS/references/). Point shards with their
+    /// own --results at one shared directory so that each reference is rendered once.
+    #[arg(long)]
+    references: Option<PathBuf>,
+    /// Only render (or find in the cache) the references, then stop: run this once before the
+    /// shards of a cluster job, which then read them (a shard that finds a reference being
+    /// rendered by another process waits for it).
+    #[arg(long)]
+    reference_only: bool,
 }
 
 fn parse_shard(s: &str) -> Result<(u32, u32), String> {
@@ -50,21 +60,52 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let bars = MultiProgress::new();
-    let overall = Bar::new("runs");
-    let per_run = Bar::new("run ");
-    let overall_bar = bars.add(overall.0.clone());
-    let run_bar = bars.add(per_run.0.clone());
-    let log = |m: &str| bars.println(m).unwrap_or(());
+    let overall = Bar::new("runs", Unit::Count("runs"));
+    let per_run = Bar::new("run ", Unit::Percent);
+    bars.add(overall.bar.clone());
+    bars.add(per_run.bar.clone());
+    let terminal = std::io::stderr().is_terminal();
+    let log = |m: &str| {
+        if terminal {
+            bars.println(m).unwrap_or(())
+        } else {
+            eprintln!("{m}")
+        }
+    };
+    let desc = load_experiment(&args.experiment).map_err(|e| e.to_string())?;
+    let out_dir = output_dir(&desc, &args.results);
+    let (done, command) = (
+        overall.bar.clone(),
+        std::env::args().collect::<Vec<_>>().join(" "),
+    );
+    crate::interrupt::on_interrupt(move || {
+        format!(
+            "interrupted after {} runs of this session; every finished run is kept in {} \
+             (runs are written atomically, a run counts once its metrics.json exists); run the \
+             same command again to resume — finished runs are skipped:\n  {command}",
+            done.position(),
+            out_dir.join("runs").display()
+        )
+    });
     let options = RunOptions {
         results: args.results,
         shard: args.shard,
+        references: args.references,
+        reference_only: args.reference_only,
     };
     let outcome =
         pool.install(|| run_experiment(&args.experiment, &options, &overall, &per_run, &log))?;
-    overall_bar.finish_and_clear();
-    run_bar.finish_and_clear();
+    overall.finish();
+    per_run.finish();
     for w in &outcome.warnings {
         eprintln!("warning: {w}");
+    }
+    if args.reference_only {
+        println!(
+            "references ready for the {} runs of the experiment; now run its shards",
+            outcome.total
+        );
+        return Ok(());
     }
     println!(
         "{} runs in the experiment{}; {} rendered now, {} already finished",
@@ -111,13 +152,30 @@ pub struct MergeArgs {
     /// Root directory of the merged results.
     #[arg(long, default_value = "results")]
     results: PathBuf,
+    /// Merge even if some of the experiment's runs are in no shard (they are listed); without it
+    /// a merge with missing runs fails and writes nothing.
+    #[arg(long)]
+    partial: bool,
 }
 
 pub fn merge_shards(args: MergeArgs) -> Result<(), String> {
     let desc = load_experiment(&args.experiment).map_err(|e| e.to_string())?;
     let out = output_dir(&desc, &args.results);
-    let copied = merge(&out, &args.shards)?;
-    println!("merged {copied} runs into {}", out.display());
+    let m = merge(&args.experiment, &out, &args.shards, args.partial)?;
+    println!("merged {} runs into {}", m.copied, out.display());
+    if m.duplicated > 0 {
+        eprintln!(
+            "warning: {} runs were in more than one shard; the first copy was kept",
+            m.duplicated
+        );
+    }
+    if !m.missing.is_empty() {
+        eprintln!(
+            "warning: partial merge: {} runs of the experiment are missing (first: {})",
+            m.missing.len(),
+            m.missing[0]
+        );
+    }
     Ok(())
 }
 
@@ -149,9 +207,9 @@ pub fn convergence(args: ConvergenceArgs) -> Result<(), String> {
         seeds: args.seeds,
         fit_from: args.fit_from,
     };
-    let bar = Bar::new("functions × samplers");
+    let bar = Bar::new("functions × samplers", Unit::Count("curves"));
     let (points, rates) = run(&study, &bar);
-    bar.0.finish_and_clear();
+    bar.finish();
     let dir = args.results.join("convergence");
     let io = |e: std::io::Error| format!("{}: {e}", dir.display());
     let mut csv = String::from("function,sampler,spp,mse,mse_se\n");

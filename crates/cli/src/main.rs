@@ -1,6 +1,7 @@
 //! `lightlab`: render scenes with a chosen light-transport integrator and run experiments.
 
 mod experiment;
+mod interrupt;
 mod progress;
 mod render;
 mod replay;
@@ -31,6 +32,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    interrupt::install();
     let result = match cli.command {
         Command::Render(args) => render::run(args),
         Command::Run(args) => experiment::run(args),

@@ -1,6 +1,6 @@
 //! `lightlab render`: one image of one scene with one integrator.
 
-use crate::progress::Bar;
+use crate::progress::{Bar, Unit};
 use clap::Args;
 use lightlab_experiments::atomic::write_atomic;
 use lightlab_experiments::image_io::{output_layers, write_exr, write_png};
@@ -34,9 +34,20 @@ pub struct RenderArgs {
     /// Worker threads (≥ 1). Default: all cores.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     threads: Option<u32>,
-    /// Output EXR path; the PNG and JSON are written beside it with the same stem.
+    /// Output EXR path (`.exr`, or no extension, which gets one); the PNG preview and JSON
+    /// statistics are written beside it with the same stem, so nothing overwrites anything.
     #[arg(long, short, default_value = "out.exr")]
     output: PathBuf,
+    /// Override a value of the scene file, as PATH=VALUE with VALUE in RON (repeatable), e.g.
+    /// `--set camera.fov=60 --set 'materials.white.albedo=(0.5, 0.5, 0.5)' --set
+    /// 'shapes[2].material="glass"'`: field names, map keys and list indices. Only values written
+    /// in the file can be overridden.
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    set: Vec<String>,
+    /// Image size WIDTHxHEIGHT, overriding the scene's (the field of view along the smaller axis
+    /// is kept), e.g. 640x480.
+    #[arg(long, value_parser = parse_resolution)]
+    resolution: Option<(u32, u32)>,
     /// Render only the paths this Heckbert expression matches, e.g. 'LS+DE' (caustics); see the
     /// README's "Path classes". Overrides the integrator's `paths`.
     #[arg(long)]
@@ -46,9 +57,47 @@ pub struct RenderArgs {
     /// expression matches first; a `rest` layer the others). The layers sum to the image.
     #[arg(long)]
     layers: Option<String>,
-    /// Exposure of the PNG preview in stops.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    /// Exposure of the PNG preview in stops (finite).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = parse_exposure)]
     exposure: f32,
+}
+
+fn parse_exposure(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!(
+            "'{s}' is not an exposure: give a finite number of stops, e.g. -1.5"
+        )),
+    }
+}
+
+/// `640x480` (or `640,480`).
+pub fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let bad =
+        || format!("'{s}' is not a resolution: write WIDTHxHEIGHT, e.g. 640x480, each 1…16384");
+    let (w, h) = s.split_once(['x', 'X', ',']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (
+        w.trim().parse().map_err(|_| bad())?,
+        h.trim().parse().map_err(|_| bad())?,
+    );
+    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+        return Err(bad());
+    }
+    Ok((w, h))
+}
+
+/// The EXR path for `-o`: `.exr` as given, no extension gets `.exr`; anything else is refused,
+/// since the PNG and JSON written beside it would take that name.
+fn exr_path(output: &std::path::Path) -> Result<PathBuf, String> {
+    match output.extension().and_then(|e| e.to_str()) {
+        None => Ok(output.with_extension("exr")),
+        Some(e) if e.eq_ignore_ascii_case("exr") => Ok(output.to_path_buf()),
+        Some(e) => Err(format!(
+            "-o {}: the output is the OpenEXR image, so name it .exr (the PNG preview and the JSON \
+             statistics are written beside it with the same stem); .{e} would be overwritten by them",
+            output.display()
+        )),
+    }
 }
 
 pub fn run(args: RenderArgs) -> Result<(), String> {
@@ -64,7 +113,20 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         None => Budget::Samples(args.spp),
     };
     budget.check().map_err(|e| format!("--seconds: {e}"))?;
-    let scene = lightlab_scene::load_scene(&args.scene).map_err(|e| e.to_string())?;
+    let output = exr_path(&args.output)?;
+    let text = std::fs::read_to_string(&args.scene)
+        .map_err(|e| format!("{}: cannot read scene: {e}", args.scene.display()))?;
+    let text = lightlab_scene::overrides::apply_overrides(&text, &args.set)?;
+    let mut scene = lightlab_scene::parse_scene(&text, &args.scene).map_err(|e| {
+        if args.set.is_empty() {
+            e.to_string()
+        } else {
+            format!("{e} (after the --set overrides)")
+        }
+    })?;
+    if let Some((w, h)) = args.resolution {
+        scene.camera = scene.camera.with_resolution(w, h);
+    }
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -79,16 +141,21 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     integrator
         .check_scene(&scene)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
-    let bar = Bar::new("render");
+    let bar = Bar::new("render", Unit::Percent);
+    crate::interrupt::on_interrupt(|| {
+        "interrupted: nothing was written (the EXR, PNG and JSON are written, atomically, when \
+         the render finishes); render again, or with --seconds or fewer --spp"
+            .into()
+    });
     let out = pool.install(|| integrator.render(&scene, &budget, args.seed, &bar));
-    bar.0.finish_and_clear();
+    bar.finish();
 
     let (w, h) = (out.film.width, out.film.height);
     let layers = output_layers(&out);
-    write_exr(&args.output, w, h, &layers).map_err(|e| e.to_string())?;
-    let png = args.output.with_extension("png");
+    write_exr(&output, w, h, &layers).map_err(|e| e.to_string())?;
+    let png = output.with_extension("png");
     write_png(&png, w, h, &layers[0].pixels, args.exposure).map_err(|e| e.to_string())?;
-    let json_path = args.output.with_extension("json");
+    let json_path = output.with_extension("json");
     let json = serde_json::json!({
         "scene": args.scene.display().to_string(),
         "integrator": config.to_ron(),
@@ -133,7 +200,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         );
     }
     if !out.outliers.is_empty() {
-        let path = args.output.with_extension("outliers.json");
+        let path = output.with_extension("outliers.json");
         let json = serde_json::json!({
             "scene": args.scene.display().to_string(),
             "integrator": config.to_ron(),
@@ -164,7 +231,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     }
     println!(
         "wrote {}, {}, {}",
-        args.output.display(),
+        output.display(),
         png.display(),
         json_path.display()
     );

@@ -225,3 +225,97 @@ fn time_budget_and_honest_error_bars() {
     );
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// No output overwrites another: `-o x.png` is refused (the PNG preview would be written over the
+/// EXR), and an output without extension becomes `.exr` beside its `.png` and `.json`.
+#[test]
+fn outputs_never_overwrite_each_other() {
+    let dir = temp_dir("names");
+    let scene = repo().join("scenes/furnace.ron");
+    let (ok, _, stderr) = render_with(&scene, &["--spp", "1"], &dir.join("x.png"));
+    assert!(
+        !ok && stderr.contains(".exr") && !dir.join("x.png").exists(),
+        "{stderr}"
+    );
+    let (ok, stdout, stderr) = render_with(
+        &scene,
+        &["--spp", "1", "--resolution", "4x3"],
+        &dir.join("plain"),
+    );
+    assert!(ok, "{stderr}");
+    for f in ["plain.exr", "plain.png", "plain.json"] {
+        assert!(dir.join(f).is_file(), "{f} missing: {stdout}");
+    }
+    let (w, h, _) = read_exr(&dir.join("plain.exr")).unwrap();
+    assert_eq!((w, h), (4, 3));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// `--set PATH=VALUE` overrides a value of the scene file without copying it, `--resolution` its
+/// size; a bad path says what is there.
+#[test]
+fn scene_overrides_from_the_command_line() {
+    let dir = temp_dir("set");
+    let scene = repo().join("scenes/cornell-box.ron");
+    let out = dir.join("o.exr");
+    let (ok, _, stderr) = render_with(
+        &scene,
+        &[
+            "--spp",
+            "1",
+            "--resolution",
+            "8x6",
+            "--set",
+            "camera.fov=20",
+            "--set",
+            "materials.white.albedo=(0.1, 0.1, 0.1)",
+        ],
+        &out,
+    );
+    assert!(ok, "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("o.json")).unwrap()).unwrap();
+    assert_eq!(
+        (
+            json["stats"]["width"].as_u64(),
+            json["stats"]["height"].as_u64()
+        ),
+        (Some(8), Some(6))
+    );
+    let (ok, _, stderr) = render_with(&scene, &["--spp", "1", "--set", "camera.fovv=20"], &out);
+    assert!(
+        !ok && stderr.contains("fovv") && stderr.contains("fov") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+    for bad in ["0x4", "12", "axb"] {
+        let (ok, _, stderr) = render_with(&scene, &["--resolution", bad], &out);
+        assert!(!ok && stderr.contains("resolution"), "{bad}: {stderr}");
+    }
+    let (ok, _, stderr) = render_with(&scene, &["--exposure", "nan"], &out);
+    assert!(!ok && stderr.contains("exposure"), "{stderr}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// Not on a terminal (a cluster job's log), progress is written as lines with what is done, the
+/// time elapsed and remaining.
+#[test]
+fn progress_lines_when_not_on_a_terminal() {
+    let dir = temp_dir("lines");
+    let o = lightlab()
+        .env("LIGHTLAB_PROGRESS_SECONDS", "0")
+        .args(["render", "--spp", "4", "--resolution", "16x16", "-o"])
+        .arg(dir.join("p.exr"))
+        .arg(repo().join("scenes/cornell-box.ron"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.starts_with("render: 100 %, elapsed 0:00:0")
+                && l.contains("remaining ≈ 0:00:00")),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -135,3 +135,173 @@ fn bad_experiments_are_errors_not_panics() {
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// `merge` checks what it merges: a shard of another experiment is refused, a missing shard makes
+/// the merge fail (writing nothing) unless `--partial`, and a shard given twice is reported.
+#[test]
+fn merge_refuses_foreign_and_incomplete_shards() {
+    let dir = temp_dir("merge-checks");
+    std::fs::write(dir.join("s.ron"), SCENE).unwrap();
+    std::fs::write(dir.join("e.ron"), EXPERIMENT).unwrap();
+    std::fs::write(
+        dir.join("other.ron"),
+        EXPERIMENT.replace("values: [1, 2]", "values: [1, 3]"),
+    )
+    .unwrap();
+    for (file, shard, results) in [
+        ("e.ron", "1/3", "a"),
+        ("e.ron", "2/3", "b"),
+        ("other.ron", "3/3", "c"),
+    ] {
+        let out = lightlab(&["run", file, "--shard", shard, "--results", results], &dir);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let merge = |shards: &[&str], extra: &[&str]| {
+        let mut args = vec!["merge", "e.ron"];
+        args.extend(shards);
+        args.extend(["--results", "merged"]);
+        args.extend(extra);
+        let out = lightlab(&args, &dir);
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (ok, _, err) = merge(&["a/cli", "c/cli"], &[]);
+    assert!(!ok && err.contains("another experiment"), "{err}");
+    let (ok, _, err) = merge(&["a/cli", "b/cli"], &[]);
+    assert!(
+        !ok && err.contains("in none of the shards") && err.contains("--partial"),
+        "{err}"
+    );
+    assert!(
+        !dir.join("merged/cli/runs").exists(),
+        "a failed merge wrote runs"
+    );
+    let (ok, out, err) = merge(&["a/cli", "b/cli", "a/cli"], &["--partial"]);
+    assert!(ok && out.contains("merged 3 runs"), "{out}{err}");
+    assert!(
+        err.contains("partial merge: 1 runs") && err.contains("more than one shard"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// References once for a cluster: `--reference-only` renders them into a shared `--references`
+/// directory and stops; shards with their own results then read them (none renders one).
+#[test]
+fn references_render_once_for_all_shards() {
+    let dir = temp_dir("reference-only");
+    std::fs::write(dir.join("s.ron"), SCENE).unwrap();
+    std::fs::write(dir.join("e.ron"), EXPERIMENT).unwrap();
+    let out = lightlab(
+        &[
+            "run",
+            "e.ron",
+            "--reference-only",
+            "--references",
+            "refs",
+            "--results",
+            "r0",
+        ],
+        &dir,
+    );
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(
+        out.status.success() && stdout.contains("references ready"),
+        "{stdout}{stderr}"
+    );
+    assert!(stderr.contains("rendered:"), "{stderr}");
+    assert!(
+        !dir.join("r0/cli/runs").exists(),
+        "--reference-only rendered runs"
+    );
+    for (i, shard) in ["1/2", "2/2"].iter().enumerate() {
+        let results = format!("r{}", i + 1);
+        let out = lightlab(
+            &[
+                "run",
+                "e.ron",
+                "--shard",
+                shard,
+                "--references",
+                "refs",
+                "--results",
+                &results,
+            ],
+            &dir,
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(
+            stderr.contains("cached:") && !stderr.contains("rendered:"),
+            "{stderr}"
+        );
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Ctrl-C during a sweep says what was kept and how to resume; running the same command again
+/// skips every finished run.
+#[test]
+fn interrupted_run_says_how_to_resume() {
+    let dir = temp_dir("interrupt");
+    std::fs::write(dir.join("s.ron"), SCENE.replace("(6, 4)", "(32, 32)")).unwrap();
+    std::fs::write(
+        dir.join("e.ron"),
+        EXPERIMENT.replace("values: [1, 2]", "values: [512, 1024]"),
+    )
+    .unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_lightlab"))
+        .args(["run", "e.ron", "--results", "res"])
+        .current_dir(&dir)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait until at least one run has finished, then interrupt.
+    let runs = dir.join("res/cli/runs");
+    for _ in 0..600 {
+        let finished = std::fs::read_dir(&runs)
+            .map(|d| {
+                d.filter_map(|e| e.ok())
+                    .any(|e| e.path().join("metrics.json").is_file())
+            })
+            .unwrap_or(false);
+        if finished {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{stderr}");
+    assert!(
+        stderr.contains("interrupted after") && stderr.contains("run the same command again"),
+        "{stderr}"
+    );
+    let kept = std::fs::read_dir(&runs)
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().path().join("metrics.json").is_file())
+        .count();
+    assert!(kept >= 1);
+    let out = lightlab(&["run", "e.ron", "--results", "res"], &dir);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains(&format!("{kept} already finished")),
+        "{stdout}"
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

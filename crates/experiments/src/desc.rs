@@ -42,6 +42,9 @@ pub struct ExperimentDesc {
     /// `rest` layer, and each gets its own metrics and plots. Default: none.
     #[serde(default)]
     pub classes: Vec<String>,
+    /// The file's text, to locate errors found later (when runs are expanded).
+    #[serde(skip)]
+    pub source: String,
 }
 
 fn default_trials() -> u32 {
@@ -179,7 +182,8 @@ pub fn load_experiment(path: &Path) -> Result<ExperimentDesc, ExperimentError> {
 pub fn parse_experiment(text: &str, path: &Path) -> Result<ExperimentDesc, ExperimentError> {
     let options =
         ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-    let desc: ExperimentDesc = options.from_str(text).map_err(|e| {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut desc: ExperimentDesc = options.from_str(text).map_err(|e| {
         ExperimentError(format!(
             "{}:{}:{}: {}",
             path.display(),
@@ -192,12 +196,20 @@ pub fn parse_experiment(text: &str, path: &Path) -> Result<ExperimentDesc, Exper
         let (line, col) = locate(text, &needle);
         ExperimentError(format!("{}:{line}:{col}: {message}", path.display()))
     })?;
+    desc.source = text.to_string();
     Ok(desc)
 }
 
 /// Line and column (1-based) of the first occurrence of `needle`, or of the start.
-fn locate(text: &str, needle: &str) -> (usize, usize) {
-    let at = text.find(needle).unwrap_or(0);
+pub(crate) fn locate(text: &str, needle: &str) -> (usize, usize) {
+    locate_after(text, "", needle)
+}
+
+/// Line and column (1-based) of the first `needle` after the first `anchor` (or of `anchor`, or
+/// of the start, when not found).
+pub(crate) fn locate_after(text: &str, anchor: &str, needle: &str) -> (usize, usize) {
+    let from = text.find(anchor).unwrap_or(0);
+    let at = text[from..].find(needle).map_or(from, |i| from + i);
     let line = text[..at].matches('\n').count() + 1;
     let col = at - text[..at].rfind('\n').map_or(0, |i| i + 1) + 1;
     (line, col)
@@ -298,8 +310,9 @@ impl ExperimentDesc {
                         return err(
                             &format!("\"{}\"", a.field()),
                             format!(
-                                "axis {:?}: {v:?} is not a valid budget (spp: integers ≥ 1; seconds: numbers > 0)",
-                                a.field()
+                                "axis {:?}: {} is not a valid budget (spp: integers ≥ 1; seconds: numbers > 0)",
+                                a.field(),
+                                v.ron()
                             ),
                         );
                     }

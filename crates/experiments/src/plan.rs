@@ -27,6 +27,47 @@ pub struct RunSpec {
     pub seed: u64,
 }
 
+/// An error in a method's integrator, placed in the experiment file: at the setting the error's
+/// column falls in (the swept axis, if the value came from one, else the method's own setting),
+/// or at the method. `e` is the integrator parser's `line:col: message`.
+fn method_error(
+    desc: &ExperimentDesc,
+    path: &Path,
+    method: &crate::desc::MethodDesc,
+    setting: &[(String, Value)],
+    spans: &[(String, usize, usize)],
+    e: &str,
+) -> ExperimentError {
+    let (col, message) = match e.split_once(": ") {
+        Some((at, m)) => (
+            at.split(':').nth(1).and_then(|c| c.parse::<usize>().ok()),
+            m.to_string(),
+        ),
+        None => (None, e.to_string()),
+    };
+    let field = col.and_then(|c| spans.iter().find(|(_, a, b)| (*a..=*b).contains(&c)));
+    let anchor = format!("\"{}\"", method.label);
+    let (line, col, what) = match field {
+        Some((k, _, _)) if setting.iter().any(|(f, _)| f == k) => {
+            let (l, c) = crate::desc::locate_after(&desc.source, "sweep", &format!("\"{k}\""));
+            (l, c, format!("swept setting {k}"))
+        }
+        Some((k, _, _)) => {
+            let (l, c) = crate::desc::locate_after(&desc.source, &anchor, &format!("\"{k}\""));
+            (l, c, format!("setting {k}"))
+        }
+        None => {
+            let (l, c) = crate::desc::locate(&desc.source, &anchor);
+            (l, c, format!("integrator {}", method.integrator))
+        }
+    };
+    ExperimentError(format!(
+        "{}:{line}:{col}: method {:?}, {what}: {message}",
+        path.display(),
+        method.label
+    ))
+}
+
 /// 64-bit FNV-1a: a stable hash for run ids, seeds and reference cache keys (not for security).
 pub fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
@@ -83,22 +124,20 @@ pub fn expand(desc: &ExperimentDesc, path: &Path) -> Result<Vec<RunSpec>, Experi
                         }
                     }
                 }
-                let text = format!(
-                    "{}({})",
-                    method.integrator,
-                    fields
-                        .iter()
-                        .map(|(k, v)| format!("{k}: {}", v.ron()))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                );
-                let config = IntegratorConfig::from_ron(&text).map_err(|e| {
-                    ExperimentError(format!(
-                        "{}: method {:?}: integrator {text}: {e}",
-                        path.display(),
-                        method.label
-                    ))
-                })?;
+                // The integrator's RON, and the column span of each field in it.
+                let mut text = format!("{}(", method.integrator);
+                let mut spans = Vec::new();
+                for (i, (k, v)) in fields.iter().enumerate() {
+                    if i > 0 {
+                        text += ", ";
+                    }
+                    let start = text.len() + 1;
+                    text += &format!("{k}: {}", v.ron());
+                    spans.push((k.clone(), start, text.len() + 1));
+                }
+                text += ")";
+                let config = IntegratorConfig::from_ron(&text)
+                    .map_err(|e| method_error(desc, path, method, setting, &spans, &e))?;
                 let integrator = config.to_ron();
                 let setting_text = setting
                     .iter()
@@ -215,5 +254,53 @@ mod tests {
             .collect();
         all.sort();
         assert_eq!(all, (0..runs.len()).collect::<Vec<_>>());
+    }
+
+    /// A bad method setting is reported at its line in the experiment file, not at a column of the
+    /// integrator text the runner generates: an unknown field at the method's setting, a bad
+    /// swept value at the sweep, a bad combination on the method's line.
+    #[test]
+    fn setting_errors_point_into_the_experiment_file() {
+        let text = r#"Experiment(
+    name: "t",
+    scenes: ["a.ron"],
+    reference: Render(integrator: "Path()", spp: 8),
+    methods: [
+        (label: "pt", integrator: "Path", settings: {"max_bounces": 2}),
+        (label: "typo", integrator: "Path", settings: {"max_bounce": 2}),
+    ],
+    trials: 2,
+)"#;
+        let path = Path::new("exp/e.ron");
+        let e = expand(&parse_experiment(text, path).unwrap(), path)
+            .unwrap_err()
+            .0;
+        assert!(
+            e.starts_with("exp/e.ron:7:56: method \"typo\", setting max_bounce:"),
+            "{e}"
+        );
+        assert!(e.contains("max_bounce") && !e.contains("1:"), "{e}");
+        let swept = text.replace(
+            "    trials: 2,",
+            "    sweep: [Values(field: \"strategy\", values: [\"Mis\", \"Bogus\"])],\n    trials: 2,",
+        ).replace(r#"{"max_bounce": 2}"#, r#"{"max_bounces": 2}"#);
+        let e = expand(&parse_experiment(&swept, path).unwrap(), path)
+            .unwrap_err()
+            .0;
+        assert!(
+            e.starts_with("exp/e.ron:9:27: method \"pt\", swept setting strategy:"),
+            "{e}"
+        );
+        let combo = text.replace(
+            r#"{"max_bounce": 2}"#,
+            r#"{"max_bounces": 2, "min_bounces": 3}"#,
+        );
+        let e = expand(&parse_experiment(&combo, path).unwrap(), path)
+            .unwrap_err()
+            .0;
+        assert!(
+            e.starts_with("exp/e.ron:7:") && e.contains("min_bounces (3) exceeds max_bounces (2)"),
+            "{e}"
+        );
     }
 }

@@ -59,6 +59,7 @@ pub fn reference(
     scene: &Scene,
     classes: &[String],
     progress: &dyn Progress,
+    log: &dyn Fn(&str),
 ) -> Result<Reference, String> {
     let (w, h) = (scene.camera.width, scene.camera.height);
     let (path, cached, image, variance_note) = match desc {
@@ -91,15 +92,31 @@ pub fn reference(
                 *spp,
             );
             let stats_path = path.with_extension("json");
-            let cached = path.is_file() && stats_path.is_file();
-            if !cached {
+            let done = || path.is_file() && stats_path.is_file();
+            let cached = done();
+            let mut waited = false;
+            while !done() {
+                // One process renders a missing reference; others (shards sharing the cache)
+                // wait for it instead of rendering it again.
+                let Some(_lock) = Lock::take(&path.with_extension("lock"))? else {
+                    if !waited {
+                        log(&format!(
+                            "  waiting for {}: another process is rendering this reference \
+                             (remove that lock file if the process has died)",
+                            path.with_extension("lock").display()
+                        ));
+                        waited = true;
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(500));
+                    continue;
+                };
+                if done() {
+                    break;
+                }
                 let integrator = config.build();
-                integrator.check_scene(scene).map_err(|e| {
-                    format!(
-                        "reference integrator {integrator_ron}: {e}",
-                        integrator_ron = config.to_ron()
-                    )
-                })?;
+                integrator
+                    .check_scene(scene)
+                    .map_err(|e| format!("reference integrator {}: {e}", config.to_ron()))?;
                 let out =
                     integrator.render(scene, &Budget::Samples(*spp), REFERENCE_SEED, progress);
                 write_exr(&path, w, h, &output_layers(&out)).map_err(|e| e.to_string())?;
@@ -261,4 +278,35 @@ pub fn load_foreign(
         mean,
         variance,
     })
+}
+
+/// A lock file held while a reference renders (created exclusively; removed when dropped).
+struct Lock(PathBuf);
+
+impl Lock {
+    /// Takes the lock at `path`; `None` if another process holds it.
+    fn take(path: &Path) -> Result<Option<Lock>, String> {
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        }
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(path)
+        {
+            Ok(mut f) => {
+                use std::io::Write;
+                let _ = writeln!(f, "pid {}", std::process::id());
+                Ok(Some(Lock(path.to_path_buf())))
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(None),
+            Err(e) => Err(format!("{}: {e}", path.display())),
+        }
+    }
+}
+
+impl Drop for Lock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
 }

@@ -25,6 +25,50 @@ pub struct RunOptions {
     pub results: PathBuf,
     /// `Some((i, n))`: run only shard i of n (0-based), the runs with index % n == i.
     pub shard: Option<(u32, u32)>,
+    /// Where rendered references are cached; default `<results>/references/`. Shards with their
+    /// own results directories point this at one shared directory to render each reference once.
+    pub references: Option<PathBuf>,
+    /// Render (or find) the references and stop, so that shards started afterwards only read them.
+    pub reference_only: bool,
+}
+
+impl RunOptions {
+    pub fn new(results: PathBuf) -> RunOptions {
+        RunOptions {
+            results,
+            shard: None,
+            references: None,
+            reference_only: false,
+        }
+    }
+}
+
+/// What identifies an experiment's runs (`experiment.json` in its output directory): a hash of
+/// every resolved run id, so that shards of one experiment, and only those, merge.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ExperimentIdentity {
+    pub name: String,
+    pub runs: usize,
+    pub runs_hash: String,
+}
+
+impl ExperimentIdentity {
+    fn of(desc: &ExperimentDesc, runs: &[RunSpec]) -> ExperimentIdentity {
+        let ids: String = runs
+            .iter()
+            .map(|r| r.id.as_str())
+            .collect::<Vec<_>>()
+            .join("\n");
+        ExperimentIdentity {
+            name: desc.name.clone(),
+            runs: runs.len(),
+            runs_hash: format!("{:016x}", crate::plan::fnv1a(ids.as_bytes())),
+        }
+    }
+
+    fn read(dir: &Path) -> Option<ExperimentIdentity> {
+        serde_json::from_str(&std::fs::read_to_string(dir.join("experiment.json")).ok()?).ok()
+    }
 }
 
 /// What a finished run records (`metrics.json`).
@@ -99,12 +143,70 @@ pub fn run_experiment(
     let desc = load_experiment(path).map_err(|e| e.to_string())?;
     let mut runs = expand(&desc, path).map_err(|e| e.to_string())?;
     let total = runs.len();
+    let identity = ExperimentIdentity::of(&desc, &runs);
     if let Some((i, n)) = options.shard {
         runs = shard(runs, i, n);
     }
     let out_dir = output_dir(&desc, &options.results);
     let experiment_dir = path.parent().unwrap_or(Path::new("."));
-    let cache_dir = options.results.join("references");
+    let cache_dir = options
+        .references
+        .clone()
+        .unwrap_or_else(|| options.results.join("references"));
+    match ExperimentIdentity::read(&out_dir) {
+        Some(found) if found != identity => {
+            return Err(format!(
+                "{} holds the results of another version of experiment {:?} ({} runs, hash {}; \
+                 this file expands to {} runs, hash {}): move them away, or use another --results",
+                out_dir.display(),
+                desc.name,
+                found.runs,
+                found.runs_hash,
+                identity.runs,
+                identity.runs_hash
+            ));
+        }
+        Some(_) => {}
+        None => {
+            let json = serde_json::to_string_pretty(&identity).map_err(|e| e.to_string())?;
+            write_atomic(&out_dir.join("experiment.json"), json.as_bytes())
+                .map_err(|e| format!("{}: {e}", out_dir.display()))?;
+        }
+    }
+    if options.reference_only {
+        let mut warnings = Vec::new();
+        let mut seen = std::collections::BTreeSet::new();
+        for run in &runs {
+            if seen.insert(run.scene.clone()) {
+                let (scene, text) = load_scene(&run.scene, desc.resolution)?;
+                let r = reference(
+                    &desc.reference,
+                    experiment_dir,
+                    &cache_dir,
+                    &run.scene_name,
+                    &text,
+                    &scene,
+                    &desc.classes,
+                    per_run,
+                    log,
+                )?;
+                log(&format!(
+                    "reference for {}: {} {}",
+                    run.scene_name,
+                    if r.cached { "cached:" } else { "rendered:" },
+                    r.path.display()
+                ));
+                warnings.extend(r.variance_note.map(|n| format!("{}: {n}", run.scene_name)));
+            }
+        }
+        return Ok(Outcome {
+            out_dir,
+            total,
+            ran: 0,
+            skipped: runs.len(),
+            warnings,
+        });
+    }
     let pending: Vec<&RunSpec> = runs
         .iter()
         .filter(|r| !run_dir(&out_dir, r).join("metrics.json").is_file())
@@ -142,6 +244,7 @@ pub fn run_experiment(
                 &scene,
                 &desc.classes,
                 per_run,
+                log,
             )?;
             log(&format!(
                 "  {} {}",
@@ -250,34 +353,125 @@ fn run_dir(out_dir: &Path, run: &RunSpec) -> PathBuf {
     out_dir.join("runs").join(&run.id)
 }
 
-/// `lightlab merge`: copies the finished runs of shard output directories into `out_dir` (runs
-/// already present are kept) and rewrites the tables and plots.
-pub fn merge(out_dir: &Path, shard_dirs: &[PathBuf]) -> Result<usize, String> {
-    let mut copied = 0;
+/// What `lightlab merge` found.
+#[derive(Debug)]
+pub struct MergeOutcome {
+    /// Runs copied now.
+    pub copied: usize,
+    /// Runs found in more than one shard (the first copy is kept).
+    pub duplicated: usize,
+    /// Runs of the experiment that no shard (nor the merged directory) has.
+    pub missing: Vec<String>,
+}
+
+/// `lightlab merge`: copies the finished runs of shard output directories of experiment `path`
+/// into `out_dir` (runs already present are kept) and rewrites the tables and plots. Every shard
+/// must be of this experiment (its `experiment.json` identity, and every run id one of its runs);
+/// unless `partial`, every run must be present, or nothing is merged.
+pub fn merge(
+    path: &Path,
+    out_dir: &Path,
+    shard_dirs: &[PathBuf],
+    partial: bool,
+) -> Result<MergeOutcome, String> {
+    let desc = load_experiment(path).map_err(|e| e.to_string())?;
+    let runs = expand(&desc, path).map_err(|e| e.to_string())?;
+    let identity = ExperimentIdentity::of(&desc, &runs);
+    let expected: std::collections::BTreeSet<&str> = runs.iter().map(|r| r.id.as_str()).collect();
+    // (run id, directory it comes from), in shard order.
+    let mut sources: BTreeMap<String, PathBuf> = BTreeMap::new();
+    let mut duplicated = 0;
     for shard_dir in shard_dirs {
-        let runs = shard_dir.join("runs");
-        let entries = std::fs::read_dir(&runs).map_err(|e| format!("{}: {e}", runs.display()))?;
+        match ExperimentIdentity::read(shard_dir) {
+            Some(found) if found == identity => {}
+            Some(found) => {
+                return Err(format!(
+                    "{} is a shard of another experiment ({:?}, {} runs, hash {}), not of {} \
+                     ({:?}, {} runs, hash {})",
+                    shard_dir.display(),
+                    found.name,
+                    found.runs,
+                    found.runs_hash,
+                    path.display(),
+                    identity.name,
+                    identity.runs,
+                    identity.runs_hash
+                ));
+            }
+            None => {
+                return Err(format!(
+                    "{} has no experiment.json: it is not the output directory of a `lightlab \
+                     run` (give SHARD_RESULTS/<name>)",
+                    shard_dir.display()
+                ));
+            }
+        }
+        let dir = shard_dir.join("runs");
+        let entries = std::fs::read_dir(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         for entry in entries {
             let entry = entry.map_err(|e| e.to_string())?;
             let from = entry.path();
-            let to = out_dir.join("runs").join(entry.file_name());
-            if !from.join("metrics.json").is_file()
-                || to.join("metrics.json").is_file()
-                || from == to
-            {
+            if !from.join("metrics.json").is_file() {
                 continue;
             }
-            std::fs::create_dir_all(&to).map_err(|e| format!("{}: {e}", to.display()))?;
-            // metrics.json last, as in a run, so an interrupted merge never leaves a half run.
-            for name in ["image.exr", "run.ron", "metrics.json"] {
-                let bytes = std::fs::read(from.join(name))
-                    .map_err(|e| format!("{}: {e}", from.join(name).display()))?;
-                write_atomic(&to.join(name), &bytes)
-                    .map_err(|e| format!("{}: {e}", to.display()))?;
+            let id = entry.file_name().to_string_lossy().into_owned();
+            if !expected.contains(id.as_str()) {
+                return Err(format!(
+                    "{} holds run {id}, which is not a run of {}",
+                    shard_dir.display(),
+                    path.display()
+                ));
             }
-            copied += 1;
+            if sources.contains_key(&id) {
+                duplicated += 1;
+            } else {
+                sources.insert(id, from);
+            }
         }
     }
+    let missing: Vec<String> = runs
+        .iter()
+        .filter(|r| {
+            !sources.contains_key(&r.id)
+                && !out_dir
+                    .join("runs")
+                    .join(&r.id)
+                    .join("metrics.json")
+                    .is_file()
+        })
+        .map(|r| r.id.clone())
+        .collect();
+    if !missing.is_empty() && !partial {
+        return Err(format!(
+            "{} of the experiment's {} runs are in none of the shards (first: {}); nothing was \
+             merged — run the missing shards, or merge with --partial",
+            missing.len(),
+            runs.len(),
+            missing[0]
+        ));
+    }
+    let json = serde_json::to_string_pretty(&identity).map_err(|e| e.to_string())?;
+    write_atomic(&out_dir.join("experiment.json"), json.as_bytes())
+        .map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let mut copied = 0;
+    for (id, from) in &sources {
+        let to = out_dir.join("runs").join(id);
+        if to.join("metrics.json").is_file() || *from == to {
+            continue;
+        }
+        std::fs::create_dir_all(&to).map_err(|e| format!("{}: {e}", to.display()))?;
+        // metrics.json last, as in a run, so an interrupted merge never leaves a half run.
+        for name in ["image.exr", "run.ron", "metrics.json"] {
+            let bytes = std::fs::read(from.join(name))
+                .map_err(|e| format!("{}: {e}", from.join(name).display()))?;
+            write_atomic(&to.join(name), &bytes).map_err(|e| format!("{}: {e}", to.display()))?;
+        }
+        copied += 1;
+    }
     write_report(out_dir).map_err(|e| e.to_string())?;
-    Ok(copied)
+    Ok(MergeOutcome {
+        copied,
+        duplicated,
+        missing,
+    })
 }

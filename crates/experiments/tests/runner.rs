@@ -44,8 +44,8 @@ fn run(
 ) -> (usize, usize, Vec<String>) {
     let log = RefCell::new(Vec::new());
     let options = RunOptions {
-        results: results.to_path_buf(),
         shard,
+        ..RunOptions::new(results.to_path_buf())
     };
     let o = run_experiment(
         experiment,
@@ -133,8 +133,14 @@ fn merged_shards_equal_the_unsharded_run() {
     let (b, _, _) = run(&exp, &dir.join("shard2"), Some((1, 2)));
     assert_eq!((a, b), (6, 6));
     let merged = dir.join("merged/tiny");
-    let copied = merge(&merged, &[dir.join("shard1/tiny"), dir.join("shard2/tiny")]).unwrap();
-    assert_eq!(copied, 12);
+    let m = merge(
+        &exp,
+        &merged,
+        &[dir.join("shard1/tiny"), dir.join("shard2/tiny")],
+        false,
+    )
+    .unwrap();
+    assert_eq!((m.copied, m.duplicated, m.missing.len()), (12, 0, 0));
     assert_eq!(comparable(&merged), whole);
     let csv = |p: &Path| {
         std::fs::read_to_string(p.join("runs.csv"))
@@ -244,10 +250,7 @@ fn correlated_reference_variance_is_not_subtracted() {
             r#"reference: Render(integrator: "Path(max_bounces: 3, sampler: Sobol)", spp: 64)"#,
         );
     std::fs::write(&exp, text).unwrap();
-    let options = RunOptions {
-        results: dir.join("results"),
-        shard: None,
-    };
+    let options = RunOptions::new(dir.join("results"));
     let o = run_experiment(&exp, &options, &NoProgress, &NoProgress, &|_| {}).unwrap();
     assert!(
         o.warnings
@@ -263,10 +266,7 @@ fn correlated_reference_variance_is_not_subtracted() {
     let (exp, dir2) = setup("independent-reference");
     let o = run_experiment(
         &exp,
-        &RunOptions {
-            results: dir2.join("results"),
-            shard: None,
-        },
+        &RunOptions::new(dir2.join("results")),
         &NoProgress,
         &NoProgress,
         &|_| {},

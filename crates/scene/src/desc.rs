@@ -664,7 +664,14 @@ pub(crate) fn fmt3(v: DVec3) -> String {
 }
 
 fn fmt_rgb(c: Rgb) -> String {
-    fmt3(glam::DVec3::new(c.r as f64, c.g as f64, c.b as f64))
+    let f = |x: f32| {
+        if x.is_nan() {
+            "NaN".to_string()
+        } else {
+            format!("{x}")
+        }
+    };
+    format!("({}, {}, {})", f(c.r), f(c.g), f(c.b))
 }
 
 fn positive(what: &str, x: f32) -> Result<(), String> {

@@ -11,6 +11,7 @@ pub mod desc;
 mod error;
 mod light;
 mod load;
+pub mod overrides;
 mod scene;
 
 pub use camera::{Camera, CameraSample};

@@ -29,13 +29,30 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 
 /// Builds a scene from RON `text`; `path` names it in errors and anchors relative mesh paths.
 pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    // A byte-order mark (some editors write one) is not part of the RON.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let options =
         ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-    let desc: SceneDesc = options.from_str(text).map_err(|e| SceneError::Invalid {
-        path: path.to_path_buf(),
-        line: e.span.start.line,
-        col: e.span.start.col,
-        message: e.code.to_string(),
+    let desc: SceneDesc = options.from_str(text).map_err(|e| {
+        // An error at the very end of the text means the file stops inside a value.
+        let body = text.trim_end();
+        let end_line = body.matches('\n').count() + 1;
+        let end_col = body.len() - body.rfind('\n').map_or(0, |i| i + 1) + 1;
+        let at_end = (e.span.start.line, e.span.start.col) >= (end_line, end_col);
+        SceneError::Invalid {
+            path: path.to_path_buf(),
+            line: e.span.start.line,
+            col: e.span.start.col,
+            message: if matches!(e.code, ron::Error::Eof) || at_end {
+                format!(
+                    "unexpected end of file: the file stops inside a value (is it truncated, or \
+                     a bracket left open?) [{}]",
+                    e.code
+                )
+            } else {
+                e.code.to_string()
+            },
+        }
     })?;
     build(desc, text, path)
 }
@@ -444,9 +461,16 @@ type ObjMesh = (Vec<DVec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>);
 
 /// Reads every object of an OBJ file into one triangle mesh.
 fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String> {
+    if file.is_dir() {
+        return Err(format!(
+            "{} is a directory, not a mesh file (name an .obj file in it)",
+            file.display()
+        ));
+    }
     if !file.is_file() {
         return Err(format!("mesh file {} does not exist", file.display()));
     }
+    check_obj_syntax(file)?;
     let (models, _materials) = tobj::load_obj(file, &tobj::GPU_LOAD_OPTIONS)
         .map_err(|e| format!("cannot read mesh file {}: {e}", file.display()))?;
     let mut positions = Vec::new();
@@ -502,4 +526,62 @@ fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String> {
         .then_some(normals)
         .filter(|ns| ns.iter().all(|n| n.is_finite() && n.length_squared() > 0.0));
     Ok((positions, indices, normals))
+}
+
+/// Reads an OBJ file's vertex and face lines the way the loader will, so that a malformed line is
+/// reported with its line number (the OBJ loader's own errors have none).
+fn check_obj_syntax(file: &Path) -> Result<(), String> {
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| format!("cannot read mesh file {}: {e}", file.display()))?;
+    let mut vertices = 0usize;
+    // The face line with the largest (positive) vertex index, checked once all vertices are read.
+    let mut largest: Option<(usize, usize, String)> = None;
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let bad = |what: &str| {
+            Err(format!(
+                "mesh file {}:{}: {what}: {}",
+                file.display(),
+                n + 1,
+                line.trim()
+            ))
+        };
+        match words.next() {
+            Some("v") => {
+                let coords: Vec<&str> = words.collect();
+                if coords.len() < 3 || coords.iter().take(3).any(|w| w.parse::<f64>().is_err()) {
+                    return bad("a vertex needs three numbers");
+                }
+                vertices += 1;
+            }
+            Some("f") => {
+                let corners: Vec<&str> = words.collect();
+                if corners.len() < 3 {
+                    return bad("a face needs at least three vertices");
+                }
+                for c in corners {
+                    let index = c.split('/').next().unwrap_or("");
+                    match index.parse::<i64>() {
+                        // Negative indices count back from the vertices read so far.
+                        Ok(i) if i < 0 && (i.unsigned_abs() as usize) <= vertices => {}
+                        Ok(i) if i > 0 => {
+                            if largest.as_ref().is_none_or(|l| i as usize > l.0) {
+                                largest = Some((i as usize, n + 1, line.trim().to_string()));
+                            }
+                        }
+                        Ok(_) => return bad("a face refers to a vertex that does not exist"),
+                        Err(_) => return bad("a face's vertex index is not an integer"),
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    match largest {
+        Some((i, n, line)) if i > vertices => Err(format!(
+            "mesh file {}:{n}: a face refers to vertex {i}, but the file has {vertices}: {line}",
+            file.display()
+        )),
+        _ => Ok(()),
+    }
 }
