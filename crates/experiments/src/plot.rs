@@ -15,14 +15,17 @@
 //! - Points are joined in the order given (sort them by x first for the usual curves); a dropped
 //!   point is bridged by the line between its neighbours.
 //! - Axis ranges cover all kept points and error-bar ends, padded by 5 % of the span (linear) or by
-//!   a factor (log: 5 % of the span in decades, and always at least one decade shown so that a tick
-//!   label appears).
+//!   a factor (log: 5 % of the span in decades, at least 0.05 decades).
+//! - Log axes choose their own ticks ([`log_ticks`]): powers of ten over wide ranges, 1-2-5 steps
+//!   over a few decades, every digit within about a decade, and evenly spaced round values when even
+//!   that gives fewer than three — so any range gets at least three readable labels, never crowded
+//!   into one another.
 //! - A series with no plottable point keeps its legend entry, marked "(no data)". If no series has
 //!   a plottable point, the result is still `Ok`: an SVG with the title, empty axes (range 0–1, or
 //!   1–10 on a log axis) and a centred note "no data". `Err` is returned only if plotters fails.
 
 use plotters::coord::Shift;
-use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -86,11 +89,13 @@ pub fn render_svg(plot: &LinePlot) -> Result<String, String> {
         let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
         let (xr, yr) = (x_range.0..x_range.1, y_range.0..y_range.1);
+        let xl = || LogAxis::new(x_range, X_SPACING);
+        let yl = || LogAxis::new(y_range, Y_SPACING);
         match (plot.log_x, plot.log_y) {
             (false, false) => draw(&root, plot, &data, xr, yr)?,
-            (true, false) => draw(&root, plot, &data, xr.log_scale(), yr)?,
-            (false, true) => draw(&root, plot, &data, xr, yr.log_scale())?,
-            (true, true) => draw(&root, plot, &data, xr.log_scale(), yr.log_scale())?,
+            (true, false) => draw(&root, plot, &data, xl(), yr)?,
+            (false, true) => draw(&root, plot, &data, xr, yl())?,
+            (true, true) => draw(&root, plot, &data, xl(), yl())?,
         }
         root.present().map_err(err)?;
     }
@@ -242,9 +247,8 @@ fn axis_range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     }
     if log {
         let (l, h) = (lo.log10(), hi.log10());
-        let span = h - l;
-        // 5 % of the span, and at least one decade in all so a power of ten (a tick) is inside.
-        let pad = (0.05 * span).max(0.5 * (1.0 - span));
+        // 5 % of the span, at least 0.05 decades (a single value still gets a range).
+        let pad = (0.05 * (h - l)).max(0.05);
         (10f64.powf(l - pad), 10f64.powf(h + pad))
     } else {
         // 5 % of the span, but at least a millionth of the magnitude (ticks stay distinct at the
@@ -264,6 +268,121 @@ fn tick_label(v: &f64) -> String {
         format!("{v}")
     } else {
         format!("{v:e}")
+    }
+}
+
+/// Smallest spacing of labelled ticks, as a fraction of the axis (x labels sit side by side and
+/// need more room than y labels stacked above each other).
+const X_SPACING: f64 = 0.09;
+const Y_SPACING: f64 = 0.05;
+
+/// A logarithmic axis over `lo..hi` with the ticks of [`log_ticks`].
+#[derive(Clone, Debug)]
+struct LogAxis {
+    lo: f64,
+    hi: f64,
+    ticks: Vec<f64>,
+    minor: Vec<f64>,
+}
+
+impl LogAxis {
+    fn new((lo, hi): (f64, f64), spacing: f64) -> LogAxis {
+        let ticks = log_ticks(lo, hi, spacing);
+        // Grid lines at every digit between labelled powers of ten.
+        let minor = if ticks.iter().all(|t| (t.log10() - t.log10().round()).abs() < 1e-9) {
+            digits(lo, hi)
+        } else {
+            Vec::new()
+        };
+        LogAxis {
+            lo,
+            hi,
+            ticks,
+            minor,
+        }
+    }
+}
+
+impl Ranged for LogAxis {
+    type FormatOption = plotters::coord::ranged1d::NoDefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        let (l, h) = (self.lo.log10(), self.hi.log10());
+        let t = (v.max(f64::MIN_POSITIVE).log10() - l) / (h - l);
+        limit.0 + (t * (limit.1 - limit.0) as f64).round() as i32
+    }
+
+    fn key_points<H: plotters::coord::ranged1d::KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        if hint.weight().allow_light_points() {
+            self.minor.clone()
+        } else {
+            self.ticks.clone()
+        }
+    }
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.lo..self.hi
+    }
+}
+
+impl ValueFormatter<f64> for LogAxis {
+    fn format(v: &f64) -> String {
+        tick_label(v)
+    }
+}
+
+/// Every digit d·10^k (d = 1…9) within `lo..=hi`.
+fn digits(lo: f64, hi: f64) -> Vec<f64> {
+    let (a, b) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    (a..=b)
+        .flat_map(|e| (1..=9).map(move |d| d as f64 * 10f64.powi(e)))
+        .filter(|v| (lo..=hi).contains(v))
+        .collect()
+}
+
+/// Labelled ticks of a log axis over `lo..=hi` (0 < lo < hi): the richest of every digit, 1-2-5
+/// steps and powers of ten (every k-th over many decades) whose neighbours are at least `spacing`
+/// of the axis apart, if it gives at least three ticks; otherwise (a range narrower than a digit's
+/// step) evenly spaced round values, a 1-2-5 step apart.
+fn log_ticks(lo: f64, hi: f64, spacing: f64) -> Vec<f64> {
+    let span = (hi / lo).log10();
+    let apart = |ticks: &[f64]| {
+        ticks
+            .windows(2)
+            .all(|w| (w[1] / w[0]).log10() >= spacing * span)
+    };
+    let (a, b) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let within = |set: &[f64], every: i32| -> Vec<f64> {
+        (a..=b)
+            .filter(|e| e.rem_euclid(every) == 0)
+            .flat_map(|e| set.iter().map(move |m| m * 10f64.powi(e)))
+            .filter(|v| *v >= lo * (1.0 - 1e-12) && *v <= hi * (1.0 + 1e-12))
+            .collect()
+    };
+    // From the richest choice to the sparsest: the first that is not crowded.
+    let digits = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0];
+    let candidates = [(&digits[..], 1), (&[1.0, 2.0, 5.0][..], 1)]
+        .into_iter()
+        .chain([1, 2, 5, 10, 20, 50].map(|every| (&[1.0][..], every)));
+    let best = candidates
+        .map(|(set, every)| within(set, every))
+        .find(|t| apart(t) && (t.len() >= 3 || t.len() < 2));
+    match best {
+        Some(t) if t.len() >= 3 => t,
+        _ => {
+            // Evenly spaced round values: a 1-2-5 step giving 3–6 ticks.
+            let raw = (hi - lo) / 4.0;
+            let p = 10f64.powf(raw.log10().floor());
+            let step = [1.0, 2.0, 5.0, 10.0]
+                .iter()
+                .map(|m| m * p)
+                .find(|s| (hi - lo) / s <= 6.0)
+                .unwrap_or(10.0 * p);
+            let first = (lo / step).ceil() as i64;
+            let last = (hi / step).floor() as i64;
+            (first..=last).map(|k| k as f64 * step).collect()
+        }
     }
 }
 
@@ -438,14 +557,52 @@ mod tests {
     fn axis_range_pads_and_covers() {
         let (a, b) = axis_range([1.0, 1e4].into_iter(), true);
         assert!(a < 1.0 && a > 0.5 && b > 1e4 && b < 2e4, "{a} {b}");
-        // A narrow log range still spans a decade.
+        // A narrow log range is padded by 5 % of its span (at least 0.05 decades).
         let (a, b) = axis_range([0.5, 0.8].into_iter(), true);
-        assert!((b / a - 10.0).abs() < 1e-9, "{a} {b}");
+        assert!(a < 0.5 && a > 0.44 && b > 0.8 && b < 0.9, "{a} {b}");
         let (a, b) = axis_range([2.0, 2.0].into_iter(), false);
         assert!(a < 2.0 && b > 2.0);
         assert_eq!(axis_range(std::iter::empty(), false), (0.0, 1.0));
         assert_eq!(tick_label(&1000.0000000002), "1000");
         assert_eq!(tick_label(&1e-5), "1e-5");
         assert_eq!(tick_label(&0.30000000000000004), "0.3");
+    }
+
+    /// Every log axis gets at least three labels, within its range, far enough apart not to run
+    /// into each other — the ranges plots met before, where labels went missing or collided: time
+    /// 0.25–2 s (only "1" and "2"), MSE 0.003–0.05 (nothing below 0.01), spp 1–256 ("90100").
+    #[test]
+    fn log_ticks_are_readable_at_any_range() {
+        for (lo, hi, spacing) in [
+            (0.25, 2.0, X_SPACING),
+            (0.003, 0.05, Y_SPACING),
+            (0.9, 280.0, X_SPACING),
+            (1e-9, 1e3, Y_SPACING),
+            (1e-30, 1e30, X_SPACING),
+            (0.5, 0.8, X_SPACING),
+            (1.001, 1.002, Y_SPACING),
+            (3.0e-3, 3.3e-3, X_SPACING),
+            (7.0, 70.0, X_SPACING),
+        ] {
+            let t = log_ticks(lo, hi, spacing);
+            assert!(t.len() >= 3, "{lo}..{hi}: {t:?}");
+            assert!(t.iter().all(|v| *v >= lo * 0.999 && *v <= hi * 1.001), "{lo}..{hi}: {t:?}");
+            let span = (hi / lo).log10();
+            for w in t.windows(2) {
+                assert!(w[1] > w[0], "{lo}..{hi}: {t:?}");
+                // Evenly spaced fallback ticks are ≥ a sixth of the range apart.
+                let log_apart = (w[1] / w[0]).log10() / span;
+                assert!(log_apart >= spacing * 0.999 || (w[1] - w[0]) >= (hi - lo) / 6.5, "{lo}..{hi}: {t:?}");
+            }
+            let labels: Vec<String> = t.iter().map(tick_label).collect();
+            let mut unique = labels.clone();
+            unique.dedup();
+            assert_eq!(unique.len(), labels.len(), "{lo}..{hi}: {labels:?}");
+        }
+        assert_eq!(log_ticks(0.9, 280.0, X_SPACING), vec![1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0]);
+        let svg = render_svg(&plot(true, vec![series("t", vec![(0.25, 0.003, 0.0), (2.0, 0.05, 0.0)])])).unwrap();
+        for label in ["0.5", "1", "2", "0.005", "0.01", "0.02", "0.05"] {
+            assert!(svg.contains(&format!(">{label}<")) || svg.contains(&format!(">\n{label}\n<")), "no tick {label}");
+        }
     }
 }
