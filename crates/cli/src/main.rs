@@ -1,5 +1,6 @@
 //! `lightlab`: render scenes with a chosen light-transport integrator and run experiments.
 
+mod compare;
 mod experiment;
 mod interrupt;
 mod progress;
@@ -28,6 +29,7 @@ enum Command {
     Merge(experiment::MergeArgs),
     Convergence(experiment::ConvergenceArgs),
     Replay(replay::ReplayArgs),
+    Compare(compare::CompareArgs),
 }
 
 fn main() -> ExitCode {
@@ -40,6 +42,7 @@ fn main() -> ExitCode {
         Command::Merge(args) => experiment::merge_shards(args),
         Command::Convergence(args) => experiment::convergence(args),
         Command::Replay(args) => replay::run(args),
+        Command::Compare(args) => compare::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -4,6 +4,7 @@
 //! input/output (OpenEXR, PNG previews) and atomic writes.
 
 pub mod atomic;
+pub mod compare;
 pub mod convergence;
 pub mod desc;
 pub mod image_io;

@@ -1,0 +1,144 @@
+//! `lightlab compare`: one EXR image against another (pbrt-v4's `imgtool diff`).
+
+use clap::Args;
+use lightlab_experiments::compare::{Region, compare, error_layers};
+use lightlab_experiments::image_io::write_exr;
+use lightlab_experiments::reference::load_foreign;
+use std::path::PathBuf;
+
+/// Compare two EXR images — Lightlab's own or another renderer's (plain R, G, B channels, or
+/// prefixed layers such as `radiance.R`): the image means and their ratio, MSE and relMSE, and,
+/// when both carry their variance of the mean (a `variance` layer, or --variance-a/--variance-b
+/// files), a per-pixel z-test z = (a − b)/√(v_a + v_b) with a Šidák-corrected critical value and a
+/// χ² test. Exits with status 1 when the z-test finds the images disagree.
+#[derive(Args)]
+pub struct CompareArgs {
+    /// The image tested.
+    a: PathBuf,
+    /// The image it is compared with (the reference).
+    b: PathBuf,
+    /// Layer of A to use (default: `radiance`, else the unnamed channels, else the only layer).
+    #[arg(long)]
+    layer_a: Option<String>,
+    /// Layer of B to use (likewise).
+    #[arg(long)]
+    layer_b: Option<String>,
+    /// A separate EXR holding A's variance of the mean.
+    #[arg(long)]
+    variance_a: Option<PathBuf>,
+    /// A separate EXR holding B's variance of the mean.
+    #[arg(long)]
+    variance_b: Option<PathBuf>,
+    /// Compare only pixels X0 ≤ x < X1, Y0 ≤ y < Y1, given as X0,Y0,X1,Y1.
+    #[arg(long, value_parser = parse_rect, conflicts_with = "mask")]
+    region: Option<(u32, u32, u32, u32)>,
+    /// Compare only the pixels where this EXR (same size) is non-zero.
+    #[arg(long)]
+    mask: Option<PathBuf>,
+    /// Family-wise false-alarm rate of the per-pixel z-test, in (0, 1).
+    #[arg(long, default_value_t = 1e-3)]
+    alpha: f64,
+    /// Write the error images (layers `difference`, `relative` and, with variances, `z`) here.
+    #[arg(long)]
+    error: Option<PathBuf>,
+    /// Print the result as JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_rect(s: &str) -> Result<(u32, u32, u32, u32), String> {
+    let bad = || format!("'{s}' is not a region: write X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1");
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|p| p.trim().parse().map_err(|_| bad()))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok((x0, y0, x1, y1)),
+        _ => Err(bad()),
+    }
+}
+
+pub fn run(args: CompareArgs) -> Result<(), String> {
+    if !(args.alpha > 0.0 && args.alpha < 1.0) {
+        return Err(format!("--alpha must be in (0, 1), got {}", args.alpha));
+    }
+    let a = load_foreign(&args.a, args.layer_a.as_deref(), args.variance_a.as_deref())?;
+    let b = load_foreign(&args.b, args.layer_b.as_deref(), args.variance_b.as_deref())?;
+    if (a.width, a.height) != (b.width, b.height) {
+        return Err(format!(
+            "{} is {}×{} but {} is {}×{}",
+            args.a.display(),
+            a.width,
+            a.height,
+            args.b.display(),
+            b.width,
+            b.height
+        ));
+    }
+    let region = match (args.region, &args.mask) {
+        (Some((x0, y0, x1, y1)), _) => {
+            if x1 > a.width || y1 > a.height {
+                return Err(format!(
+                    "--region reaches past the {}×{} image",
+                    a.width, a.height
+                ));
+            }
+            Region::Rect { x0, y0, x1, y1 }
+        }
+        (None, Some(mask)) => {
+            let m = load_foreign(mask, None, None)?;
+            if (m.width, m.height) != (a.width, a.height) {
+                return Err(format!(
+                    "mask {} is {}×{}, the images {}×{}",
+                    mask.display(),
+                    m.width,
+                    m.height,
+                    a.width,
+                    a.height
+                ));
+            }
+            Region::Mask(m.mean.iter().map(|p| p.iter().any(|&v| v != 0.0)).collect())
+        }
+        (None, None) => Region::All,
+    };
+    let c = compare(&a, &b, &region, args.alpha).ok_or("the region holds no pixel")?;
+    if let Some(path) = &args.error {
+        write_exr(path, a.width, a.height, &error_layers(&a, &b, &region))
+            .map_err(|e| e.to_string())?;
+    }
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&c).expect("comparison serialises")
+        );
+    } else {
+        let f = |v: [f64; 3]| format!("({:.6}, {:.6}, {:.6})", v[0], v[1], v[2]);
+        println!("{} pixels compared", c.pixels);
+        println!("mean A = {}, mean B = {}", f(c.mean_a), f(c.mean_b));
+        println!("ratio A/B = {}", f(c.ratio));
+        println!("MSE = {:.4e}, relMSE = {:.4e}", c.mse, c.rel_mse);
+        match &c.z {
+            Some(z) => println!(
+                "z-test over {} pixel channels: rms z = {:.3}, max |z| = {:.2} at pixel ({}, {}) channel {}, {} beyond the critical {:.2} (α = {}), χ² p-value {:.3e}",
+                z.tested,
+                z.rms_z,
+                z.max_abs_z,
+                z.worst.0,
+                z.worst.1,
+                z.worst.2,
+                z.exceeding,
+                z.critical,
+                z.alpha,
+                z.chi2_p_value
+            ),
+            None => println!("no z-test: an image has no variance layer (give --variance-a/--variance-b)"),
+        }
+    }
+    match &c.z {
+        Some(z) if !z.agrees() => Err(format!(
+            "the images disagree: {} pixel channels differ by more than {:.2} standard errors",
+            z.exceeding, z.critical
+        )),
+        _ => Ok(()),
+    }
+}

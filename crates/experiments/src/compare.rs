@@ -1,0 +1,229 @@
+//! `lightlab compare A.exr B.exr`: one image against another, as pbrt-v4's `imgtool diff` does —
+//! the mean ratio, MSE and relMSE, and, when both images carry their variance of the mean, a
+//! per-pixel z-test — over the whole image or a region, with an error image to look at.
+//!
+//! The z-test. For each pixel and channel z = (a − b) / √(v_a + v_b). If both images estimate the
+//! same values with independent noise and honest variances, the z are close to standard normal:
+//! Σz² over the n pixel channels tested is χ²(n) (its p-value is reported), and |z| exceeds the
+//! Šidák-corrected critical value of the chosen α somewhere with probability α. Pixels where both
+//! variances are zero are left out (an exact match, or nothing sampled there: the variance cannot
+//! tell). Neighbouring pixels of a light-traced image are correlated; the per-pixel statistics
+//! still hold, the χ² of the whole image then only approximately.
+
+use crate::metrics::{Image, REL_EPSILON};
+use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
+
+/// Which pixels to compare.
+#[derive(Clone, Debug)]
+pub enum Region {
+    All,
+    /// Pixels x0 ≤ x < x1, y0 ≤ y < y1.
+    Rect { x0: u32, y0: u32, x1: u32, y1: u32 },
+    /// Pixels where the mask's value (any channel) is non-zero.
+    Mask(Vec<bool>),
+}
+
+impl Region {
+    fn contains(&self, i: usize, width: u32) -> bool {
+        match self {
+            Region::All => true,
+            Region::Rect { x0, y0, x1, y1 } => {
+                let (x, y) = ((i % width as usize) as u32, (i / width as usize) as u32);
+                (*x0..*x1).contains(&x) && (*y0..*y1).contains(&y)
+            }
+            Region::Mask(m) => m[i],
+        }
+    }
+}
+
+/// The per-pixel z-test's outcome.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ZTest {
+    /// Pixel channels tested (both variances not zero).
+    pub tested: usize,
+    /// √(mean z²): 1 for agreement.
+    pub rms_z: f64,
+    pub max_abs_z: f64,
+    /// Where the largest |z| is: (x, y, channel).
+    pub worst: (u32, u32, usize),
+    /// Šidák-corrected critical |z| for `alpha` over the tested channels, and how many exceed it.
+    pub alpha: f64,
+    pub critical: f64,
+    pub exceeding: usize,
+    /// P(χ²(n) ≥ Σz²): small when the images differ by more than their noise.
+    pub chi2_p_value: f64,
+}
+
+impl ZTest {
+    /// Whether the images agree: no channel beyond the critical value.
+    pub fn agrees(&self) -> bool {
+        self.exceeding == 0
+    }
+}
+
+/// What `compare` found.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Comparison {
+    pub pixels: usize,
+    pub mean_a: [f64; 3],
+    pub mean_b: [f64; 3],
+    /// mean a / mean b per channel.
+    pub ratio: [f64; 3],
+    /// Mean over pixels and channels of (a − b)², and of (a − b)² / (b² + ε).
+    pub mse: f64,
+    pub rel_mse: f64,
+    /// The z-test, when both images carry their variance.
+    pub z: Option<ZTest>,
+}
+
+/// Compares `a` with `b` over `region`; `None` when the sizes differ or the region is empty.
+pub fn compare(a: &Image, b: &Image, region: &Region, alpha: f64) -> Option<Comparison> {
+    if (a.width, a.height) != (b.width, b.height) {
+        return None;
+    }
+    let inside: Vec<usize> = (0..a.mean.len())
+        .filter(|&i| region.contains(i, a.width))
+        .collect();
+    if inside.is_empty() {
+        return None;
+    }
+    let n = inside.len() as f64;
+    let (mut mean_a, mut mean_b) = ([0.0f64; 3], [0.0f64; 3]);
+    let (mut mse, mut rel) = (0.0, 0.0);
+    for &i in &inside {
+        for c in 0..3 {
+            let (x, y) = (a.mean[i][c] as f64, b.mean[i][c] as f64);
+            mean_a[c] += x / n;
+            mean_b[c] += y / n;
+            mse += (x - y).powi(2) / (3.0 * n);
+            rel += (x - y).powi(2) / (y * y + REL_EPSILON) / (3.0 * n);
+        }
+    }
+    let z = match (&a.variance, &b.variance) {
+        (Some(va), Some(vb)) => {
+            let mut zs = Vec::new();
+            for &i in &inside {
+                for c in 0..3 {
+                    let v = va[i][c] as f64 + vb[i][c] as f64;
+                    if v > 0.0 {
+                        zs.push(((a.mean[i][c] - b.mean[i][c]) as f64 / v.sqrt(), i, c));
+                    }
+                }
+            }
+            (!zs.is_empty()).then(|| {
+                let per_test = -((-alpha).ln_1p() / zs.len() as f64).exp_m1();
+                let critical = -Normal::standard().inverse_cdf(per_test / 2.0);
+                let sum_sq: f64 = zs.iter().map(|z| z.0 * z.0).sum();
+                let &(zmax, wi, wc) = zs
+                    .iter()
+                    .max_by(|p, q| p.0.abs().total_cmp(&q.0.abs()))
+                    .expect("non-empty");
+                ZTest {
+                    tested: zs.len(),
+                    rms_z: (sum_sq / zs.len() as f64).sqrt(),
+                    max_abs_z: zmax.abs(),
+                    worst: (wi as u32 % a.width, wi as u32 / a.width, wc),
+                    alpha,
+                    critical,
+                    exceeding: zs.iter().filter(|z| z.0.abs() > critical).count(),
+                    chi2_p_value: ChiSquared::new(zs.len() as f64)
+                        .map_or(f64::NAN, |d| d.sf(sum_sq)),
+                }
+            })
+        }
+        _ => None,
+    };
+    Some(Comparison {
+        pixels: inside.len(),
+        mean_a,
+        mean_b,
+        ratio: [0, 1, 2].map(|c| mean_a[c] / mean_b[c]),
+        mse,
+        rel_mse: rel,
+        z,
+    })
+}
+
+/// The error images of `a` against `b`: `difference` (a − b), `relative` ((a − b)/(|b| + 0.01)) and,
+/// with both variances, `z`; pixels outside `region` are 0.
+pub fn error_layers(a: &Image, b: &Image, region: &Region) -> Vec<crate::image_io::RgbLayer> {
+    use crate::image_io::RgbLayer;
+    let px = |f: &dyn Fn(usize, usize) -> f32| -> Vec<[f32; 3]> {
+        (0..a.mean.len())
+            .map(|i| {
+                if region.contains(i, a.width) {
+                    [f(i, 0), f(i, 1), f(i, 2)]
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect()
+    };
+    let mut layers = vec![
+        RgbLayer {
+            name: "difference".into(),
+            pixels: px(&|i, c| a.mean[i][c] - b.mean[i][c]),
+        },
+        RgbLayer {
+            name: "relative".into(),
+            pixels: px(&|i, c| (a.mean[i][c] - b.mean[i][c]) / (b.mean[i][c].abs() + 0.01)),
+        },
+    ];
+    if let (Some(va), Some(vb)) = (&a.variance, &b.variance) {
+        layers.push(RgbLayer {
+            name: "z".into(),
+            pixels: px(&|i, c| {
+                let v = va[i][c] + vb[i][c];
+                if v > 0.0 {
+                    (a.mean[i][c] - b.mean[i][c]) / v.sqrt()
+                } else {
+                    0.0
+                }
+            }),
+        });
+    }
+    layers
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image(w: u32, h: u32, f: impl Fn(usize) -> f32, var: Option<f32>) -> Image {
+        let n = (w * h) as usize;
+        Image {
+            width: w,
+            height: h,
+            mean: (0..n).map(|i| [f(i); 3]).collect(),
+            variance: var.map(|v| vec![[v; 3]; n]),
+        }
+    }
+
+    /// Known differences give known statistics; a region restricts them; noise at the stated
+    /// variance passes the z-test and a 10σ offset in one pixel fails it, located.
+    #[test]
+    fn statistics_of_known_images() {
+        let a = image(4, 2, |i| 1.0 + i as f32, None);
+        let b = image(4, 2, |i| 1.0 + i as f32 + 0.5, None);
+        let c = compare(&a, &b, &Region::All, 1e-3).unwrap();
+        assert_eq!(c.pixels, 8);
+        assert!((c.mse - 0.25).abs() < 1e-12 && c.z.is_none());
+        assert!((c.ratio[0] - 4.5 / 5.0).abs() < 1e-12, "{:?}", c.ratio);
+        let r = Region::Rect { x0: 1, y0: 0, x1: 2, y1: 2 };
+        assert_eq!(compare(&a, &b, &r, 1e-3).unwrap().pixels, 2);
+        assert!(compare(&a, &image(2, 2, |_| 0.0, None), &Region::All, 1e-3).is_none());
+
+        // Deterministic pseudo-noise of variance 1/12 (uniform) against exact values.
+        let noisy = image(64, 64, |i| ((i * 7919 % 1000) as f32 / 1000.0 - 0.5), Some(1.0 / 12.0));
+        let exact = image(64, 64, |_| 0.0, Some(0.0));
+        let z = compare(&noisy, &exact, &Region::All, 1e-3).unwrap().z.unwrap();
+        assert!(z.agrees() && (z.rms_z - 1.0).abs() < 0.05, "{z:?}");
+        let mut off = noisy.clone();
+        off.mean[70] = [3.0; 3];
+        let z = compare(&off, &exact, &Region::All, 1e-3).unwrap().z.unwrap();
+        assert!(!z.agrees() && (z.worst.0, z.worst.1) == (6, 1) && z.max_abs_z > 10.0, "{z:?}");
+        let layers = error_layers(&off, &exact, &Region::All);
+        let names: Vec<&str> = layers.iter().map(|l| l.name.as_str()).collect();
+        assert_eq!(names, ["difference", "relative", "z"]);
+    }
+}
