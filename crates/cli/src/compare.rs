@@ -131,7 +131,9 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                 z.alpha,
                 z.chi2_p_value
             ),
-            None => println!("no z-test: an image has no variance layer (give --variance-a/--variance-b)"),
+            None => println!(
+                "no z-test: an image has no variance layer (give --variance-a/--variance-b)"
+            ),
         }
     }
     match &c.z {

@@ -327,9 +327,18 @@ fn compare_two_renders() {
     let dir = temp_dir("compare");
     let scene = repo().join("scenes/cornell-box.ron");
     for (name, args) in [
-        ("a.exr", vec!["--spp", "16", "--seed", "1", "-i", "Path(max_bounces: 3)"]),
-        ("b.exr", vec!["--spp", "16", "--seed", "2", "-i", "Path(max_bounces: 3)"]),
-        ("c.exr", vec!["--spp", "16", "--seed", "3", "-i", "Path(max_bounces: 1)"]),
+        (
+            "a.exr",
+            vec!["--spp", "16", "--seed", "1", "-i", "Path(max_bounces: 3)"],
+        ),
+        (
+            "b.exr",
+            vec!["--spp", "16", "--seed", "2", "-i", "Path(max_bounces: 3)"],
+        ),
+        (
+            "c.exr",
+            vec!["--spp", "16", "--seed", "3", "-i", "Path(max_bounces: 1)"],
+        ),
     ] {
         let mut a = args.clone();
         a.extend(["--resolution", "24x24"]);
@@ -337,17 +346,42 @@ fn compare_two_renders() {
         assert!(ok, "{stderr}");
     }
     let run = |args: &[&str]| {
-        let o = lightlab().arg("compare").args(args).current_dir(&dir).output().unwrap();
-        (o.status.code(), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+        let o = lightlab()
+            .arg("compare")
+            .args(args)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
     };
     let (code, out, err) = run(&["a.exr", "b.exr"]);
     assert_eq!(code, Some(0), "{out}{err}");
-    assert!(out.contains("576 pixels compared") && out.contains("0 beyond the critical"), "{out}");
-    let (code, out, err) = run(&["c.exr", "b.exr", "--error", "err.exr", "--region", "0,0,24,12"]);
+    assert!(
+        out.contains("576 pixels compared") && out.contains("0 beyond the critical"),
+        "{out}"
+    );
+    let (code, out, err) = run(&[
+        "c.exr",
+        "b.exr",
+        "--error",
+        "err.exr",
+        "--region",
+        "0,0,24,12",
+    ]);
     assert_eq!(code, Some(1), "{out}{err}");
-    assert!(out.contains("288 pixels compared") && err.contains("disagree"), "{out}{err}");
+    assert!(
+        out.contains("288 pixels compared") && err.contains("disagree"),
+        "{out}{err}"
+    );
     let (_, _, layers) = read_exr(&dir.join("err.exr")).unwrap();
-    assert_eq!(layers.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(), ["difference", "relative", "z"]);
+    assert_eq!(
+        layers.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(),
+        ["difference", "relative", "z"]
+    );
     let (code, _, err) = run(&["a.exr", "b.exr", "--region", "0,0,99,2"]);
     assert!(code == Some(1) && err.contains("past"), "{err}");
     std::fs::remove_dir_all(dir).ok();

@@ -18,7 +18,12 @@ use statrs::distribution::{ChiSquared, ContinuousCDF, Normal};
 pub enum Region {
     All,
     /// Pixels x0 ≤ x < x1, y0 ≤ y < y1.
-    Rect { x0: u32, y0: u32, x1: u32, y1: u32 },
+    Rect {
+        x0: u32,
+        y0: u32,
+        x1: u32,
+        y1: u32,
+    },
     /// Pixels where the mask's value (any channel) is non-zero.
     Mask(Vec<bool>),
 }
@@ -209,19 +214,38 @@ mod tests {
         assert_eq!(c.pixels, 8);
         assert!((c.mse - 0.25).abs() < 1e-12 && c.z.is_none());
         assert!((c.ratio[0] - 4.5 / 5.0).abs() < 1e-12, "{:?}", c.ratio);
-        let r = Region::Rect { x0: 1, y0: 0, x1: 2, y1: 2 };
+        let r = Region::Rect {
+            x0: 1,
+            y0: 0,
+            x1: 2,
+            y1: 2,
+        };
         assert_eq!(compare(&a, &b, &r, 1e-3).unwrap().pixels, 2);
         assert!(compare(&a, &image(2, 2, |_| 0.0, None), &Region::All, 1e-3).is_none());
 
         // Deterministic pseudo-noise of variance 1/12 (uniform) against exact values.
-        let noisy = image(64, 64, |i| ((i * 7919 % 1000) as f32 / 1000.0 - 0.5), Some(1.0 / 12.0));
+        let noisy = image(
+            64,
+            64,
+            |i| (i * 7919 % 1000) as f32 / 1000.0 - 0.5,
+            Some(1.0 / 12.0),
+        );
         let exact = image(64, 64, |_| 0.0, Some(0.0));
-        let z = compare(&noisy, &exact, &Region::All, 1e-3).unwrap().z.unwrap();
+        let z = compare(&noisy, &exact, &Region::All, 1e-3)
+            .unwrap()
+            .z
+            .unwrap();
         assert!(z.agrees() && (z.rms_z - 1.0).abs() < 0.05, "{z:?}");
         let mut off = noisy.clone();
         off.mean[70] = [3.0; 3];
-        let z = compare(&off, &exact, &Region::All, 1e-3).unwrap().z.unwrap();
-        assert!(!z.agrees() && (z.worst.0, z.worst.1) == (6, 1) && z.max_abs_z > 10.0, "{z:?}");
+        let z = compare(&off, &exact, &Region::All, 1e-3)
+            .unwrap()
+            .z
+            .unwrap();
+        assert!(
+            !z.agrees() && (z.worst.0, z.worst.1) == (6, 1) && z.max_abs_z > 10.0,
+            "{z:?}"
+        );
         let layers = error_layers(&off, &exact, &Region::All);
         let names: Vec<&str> = layers.iter().map(|l| l.name.as_str()).collect();
         assert_eq!(names, ["difference", "relative", "z"]);

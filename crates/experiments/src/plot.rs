@@ -289,7 +289,10 @@ impl LogAxis {
     fn new((lo, hi): (f64, f64), spacing: f64) -> LogAxis {
         let ticks = log_ticks(lo, hi, spacing);
         // Grid lines at every digit between labelled powers of ten.
-        let minor = if ticks.iter().all(|t| (t.log10() - t.log10().round()).abs() < 1e-9) {
+        let minor = if ticks
+            .iter()
+            .all(|t| (t.log10() - t.log10().round()).abs() < 1e-9)
+        {
             digits(lo, hi)
         } else {
             Vec::new()
@@ -586,23 +589,39 @@ mod tests {
         ] {
             let t = log_ticks(lo, hi, spacing);
             assert!(t.len() >= 3, "{lo}..{hi}: {t:?}");
-            assert!(t.iter().all(|v| *v >= lo * 0.999 && *v <= hi * 1.001), "{lo}..{hi}: {t:?}");
+            assert!(
+                t.iter().all(|v| *v >= lo * 0.999 && *v <= hi * 1.001),
+                "{lo}..{hi}: {t:?}"
+            );
             let span = (hi / lo).log10();
             for w in t.windows(2) {
                 assert!(w[1] > w[0], "{lo}..{hi}: {t:?}");
                 // Evenly spaced fallback ticks are ≥ a sixth of the range apart.
                 let log_apart = (w[1] / w[0]).log10() / span;
-                assert!(log_apart >= spacing * 0.999 || (w[1] - w[0]) >= (hi - lo) / 6.5, "{lo}..{hi}: {t:?}");
+                assert!(
+                    log_apart >= spacing * 0.999 || (w[1] - w[0]) >= (hi - lo) / 6.5,
+                    "{lo}..{hi}: {t:?}"
+                );
             }
             let labels: Vec<String> = t.iter().map(tick_label).collect();
             let mut unique = labels.clone();
             unique.dedup();
             assert_eq!(unique.len(), labels.len(), "{lo}..{hi}: {labels:?}");
         }
-        assert_eq!(log_ticks(0.9, 280.0, X_SPACING), vec![1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0]);
-        let svg = render_svg(&plot(true, vec![series("t", vec![(0.25, 0.003, 0.0), (2.0, 0.05, 0.0)])])).unwrap();
+        assert_eq!(
+            log_ticks(0.9, 280.0, X_SPACING),
+            vec![1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0]
+        );
+        let svg = render_svg(&plot(
+            true,
+            vec![series("t", vec![(0.25, 0.003, 0.0), (2.0, 0.05, 0.0)])],
+        ))
+        .unwrap();
         for label in ["0.5", "1", "2", "0.005", "0.01", "0.02", "0.05"] {
-            assert!(svg.contains(&format!(">{label}<")) || svg.contains(&format!(">\n{label}\n<")), "no tick {label}");
+            assert!(
+                svg.contains(&format!(">{label}<")) || svg.contains(&format!(">\n{label}\n<")),
+                "no tick {label}"
+            );
         }
     }
 }

@@ -173,57 +173,9 @@ pub fn run_experiment(
                 .map_err(|e| format!("{}: {e}", out_dir.display()))?;
         }
     }
-    if options.reference_only {
-        let mut warnings = Vec::new();
-        let mut seen = std::collections::BTreeSet::new();
-        for run in &runs {
-            if seen.insert(run.scene.clone()) {
-                let (scene, text) = load_scene(&run.scene, desc.resolution)?;
-                let r = reference(
-                    &desc.reference,
-                    experiment_dir,
-                    &cache_dir,
-                    &run.scene_name,
-                    &text,
-                    &scene,
-                    &desc.classes,
-                    per_run,
-                    log,
-                )?;
-                log(&format!(
-                    "reference for {}: {} {}",
-                    run.scene_name,
-                    if r.cached { "cached:" } else { "rendered:" },
-                    r.path.display()
-                ));
-                warnings.extend(r.variance_note.map(|n| format!("{}: {n}", run.scene_name)));
-            }
-        }
-        return Ok(Outcome {
-            out_dir,
-            total,
-            ran: 0,
-            skipped: runs.len(),
-            warnings,
-        });
-    }
-    let pending: Vec<&RunSpec> = runs
-        .iter()
-        .filter(|r| !run_dir(&out_dir, r).join("metrics.json").is_file())
-        .collect();
-    let skipped = runs.len() - pending.len();
-    if skipped > 0 {
-        log(&format!(
-            "resuming: {skipped} of {} runs already finished",
-            runs.len()
-        ));
-    }
-    overall.start(pending.len() as u64);
-
-    let mut scenes: BTreeMap<PathBuf, (Scene, Reference)> = BTreeMap::new();
-    let mut warnings = Vec::new();
-    for run in &pending {
-        if !scenes.contains_key(&run.scene) {
+    // A scene, loaded once, with its reference (found in the cache, rendered, or read).
+    let prepare =
+        |run: &RunSpec, warnings: &mut Vec<String>| -> Result<(Scene, Reference), String> {
             let (scene, text) = load_scene(&run.scene, desc.resolution)?;
             warnings.extend(scene.warnings.iter().cloned());
             log(&format!(
@@ -254,7 +206,42 @@ pub fn run_experiment(
             if let Some(note) = &r.variance_note {
                 warnings.push(format!("{}: {note}", run.scene_name));
             }
-            scenes.insert(run.scene.clone(), (scene, r));
+            Ok((scene, r))
+        };
+    let mut warnings = Vec::new();
+    if options.reference_only {
+        let mut seen = std::collections::BTreeSet::new();
+        for run in &runs {
+            if seen.insert(run.scene.clone()) {
+                prepare(run, &mut warnings)?;
+            }
+        }
+        return Ok(Outcome {
+            out_dir,
+            total,
+            ran: 0,
+            skipped: runs.len(),
+            warnings,
+        });
+    }
+    let pending: Vec<&RunSpec> = runs
+        .iter()
+        .filter(|r| !run_dir(&out_dir, r).join("metrics.json").is_file())
+        .collect();
+    let skipped = runs.len() - pending.len();
+    if skipped > 0 {
+        log(&format!(
+            "resuming: {skipped} of {} runs already finished",
+            runs.len()
+        ));
+    }
+    overall.start(pending.len() as u64);
+
+    let mut scenes: BTreeMap<PathBuf, (Scene, Reference)> = BTreeMap::new();
+    for run in &pending {
+        if !scenes.contains_key(&run.scene) {
+            let prepared = prepare(run, &mut warnings)?;
+            scenes.insert(run.scene.clone(), prepared);
         }
         let (scene, reference) = &scenes[&run.scene];
         let config = IntegratorConfig::from_ron(&run.integrator)
@@ -422,10 +409,11 @@ pub fn merge(
                     path.display()
                 ));
             }
-            if sources.contains_key(&id) {
-                duplicated += 1;
-            } else {
-                sources.insert(id, from);
+            match sources.entry(id) {
+                std::collections::btree_map::Entry::Occupied(_) => duplicated += 1,
+                std::collections::btree_map::Entry::Vacant(v) => {
+                    v.insert(from);
+                }
             }
         }
     }
