@@ -17,6 +17,7 @@ pub fn render(scene: &Scene, config: &str, spp: u32, seed: u64) -> RenderOutput 
     let cfg = IntegratorConfig::from_ron(config)
         .unwrap_or_else(|e| panic!("bad integrator {config}: {e}"));
     cfg.build()
+        .unwrap_or_else(|e| panic!("bad integrator {config}: {e}"))
         .render(scene, &Budget::Samples(spp), seed, &NoProgress)
 }
 

@@ -231,7 +231,7 @@ fn outliers_are_logged_counted_and_replay_exactly() {
     let IntegratorConfig::Bdpt(c) = IntegratorConfig::from_ron(config).unwrap() else {
         unreachable!()
     };
-    let bdpt = Bdpt::new(c);
+    let bdpt = Bdpt::new(c).unwrap();
     for o in &out.outliers {
         assert!(o.class.starts_with('L') && o.class.ends_with('E'));
         assert_eq!(o.pdf_fwd.len(), (o.s + o.t) as usize);

@@ -125,7 +125,7 @@ fn photon_radii_at_the_limit_of_f32() {
         "PhotonMap(gather: Radius(Absolute(1e-7)))",
         "PhotonMap(caustic_gather: Nearest(k: 50, max_radius: Absolute(1e-7)))",
     ] {
-        let integrator = IntegratorConfig::from_ron(config).unwrap().build();
+        let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
         let e = integrator.check_scene(&point_over_plane).unwrap_err();
         assert!(
             e.contains("smallest radius") && e.contains(&format!("{min:.2e}")),
@@ -133,7 +133,7 @@ fn photon_radii_at_the_limit_of_f32() {
         );
     }
     let ok = IntegratorConfig::from_ron(&format!("Sppm(radius: Absolute({}))", 2.0 * min)).unwrap();
-    assert!(ok.build().check_scene(&point_over_plane).is_ok());
+    assert!(ok.build().unwrap().check_scene(&point_over_plane).is_ok());
 
     // A constant density near (1000, 0, 1000): the radius 2 × 256 float steps there.
     let offset = 1000.0f32;

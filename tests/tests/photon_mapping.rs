@@ -444,7 +444,8 @@ fn sppm_mse_falls_as_passes_to_the_minus_two_thirds() {
             "Sppm(min_bounces: 2, max_bounces: 4, photons_per_pass: 1000, radius: Relative(0.05), update: {update})"
         ))
         .unwrap()
-        .build();
+        .build()
+            .unwrap();
         let seeds = 8;
         let mut mse = vec![0.0f64; passes.len()];
         for seed in 0..seeds {

@@ -127,7 +127,7 @@ fn time_budget_renders_the_sample_budget_it_reaches() {
         "Bdpt(max_bounces: 3, sampler: Sobol)",
         "PhotonMap(max_bounces: 3, photons: 2000, caustic_photons: 100)",
     ] {
-        let integrator = IntegratorConfig::from_ron(config).unwrap().build();
+        let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
         let timed = integrator.render(&sc, &Budget::Seconds(0.15), 3, &NoProgress);
         let n = timed.stats.spp;
         assert!(n >= 2, "{config}: only {n} samples in 0.15 s");
@@ -148,7 +148,8 @@ fn time_budget_with_a_stratified_sampler_calibrates_then_renders_one_count() {
     let sc = scene(&cornell(1.0, [0.0; 3], (12, 10)));
     let integrator = IntegratorConfig::from_ron("Path(max_bounces: 3, sampler: Stratified)")
         .unwrap()
-        .build();
+        .build()
+        .unwrap();
     let timed = integrator.render(&sc, &Budget::Seconds(0.3), 3, &NoProgress);
     let n = timed.stats.spp;
     assert!(n >= 4, "{n} samples");
@@ -169,7 +170,7 @@ fn mse(
     budget: Budget,
     reference: &RenderOutput,
 ) -> (f64, f64) {
-    let integrator = IntegratorConfig::from_ron(config).unwrap().build();
+    let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
     let seeds = 6;
     let (mut total, mut spp) = (0.0, 0.0);
     for s in 0..seeds {

@@ -137,7 +137,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     let pool = pool
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
-    let integrator = config.build();
+    let integrator = config.build()?;
     integrator
         .check_scene(&scene)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;

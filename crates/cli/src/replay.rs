@@ -66,7 +66,7 @@ pub fn run(args: ReplayArgs) -> Result<(), String> {
         ));
     }
     let contributions =
-        Bdpt::new(bdpt).replay(&scene, args.seed, args.spp, args.pixel, args.sample);
+        Bdpt::new(bdpt)?.replay(&scene, args.seed, args.spp, args.pixel, args.sample);
     let json = serde_json::to_string_pretty(&contributions).expect("contributions serialise");
     // A closed pipe (`| head`) is not an error.
     match writeln!(std::io::stdout(), "{json}") {

@@ -29,21 +29,20 @@ pub struct RunSpec {
 
 /// An error in a method's integrator, placed in the experiment file: at the setting the error's
 /// column falls in (the swept axis, if the value came from one, else the method's own setting),
-/// or at the method. `e` is the integrator parser's `line:col: message`.
+/// or at the method.
 fn method_error(
     desc: &ExperimentDesc,
     path: &Path,
     method: &crate::desc::MethodDesc,
     setting: &[(String, Value)],
     spans: &[(String, usize, usize)],
-    e: &str,
+    e: &lightlab_integrators::ConfigError,
 ) -> ExperimentError {
-    let (col, message) = match e.split_once(": ") {
-        Some((at, m)) => (
-            at.split(':').nth(1).and_then(|c| c.parse::<usize>().ok()),
-            m.to_string(),
-        ),
-        None => (None, e.to_string()),
+    let (col, message) = match e {
+        lightlab_integrators::ConfigError::Syntax { col, message, .. } => {
+            (Some(*col), message.clone())
+        }
+        lightlab_integrators::ConfigError::Invalid(message) => (None, message.clone()),
     };
     let field = col.and_then(|c| spans.iter().find(|(_, a, b)| (*a..=*b).contains(&c)));
     let anchor = format!("\"{}\"", method.label);

@@ -113,7 +113,9 @@ pub fn reference(
                 if done() {
                     break;
                 }
-                let integrator = config.build();
+                let integrator = config
+                    .build()
+                    .map_err(|e| format!("reference integrator {}: {e}", config.to_ron()))?;
                 integrator
                     .check_scene(scene)
                     .map_err(|e| format!("reference integrator {}: {e}", config.to_ron()))?;

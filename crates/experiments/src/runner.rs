@@ -247,7 +247,7 @@ pub fn run_experiment(
         let config = IntegratorConfig::from_ron(&run.integrator)
             .and_then(|c| c.with_paths_and_layers(None, class_layers(&desc.classes)))
             .map_err(|e| e.to_string())?;
-        let integrator = config.build();
+        let integrator = config.build().map_err(|e| e.to_string())?;
         integrator
             .check_scene(scene)
             .map_err(|e| format!("{} / {}: {e}", run.scene_name, run.method))?;

@@ -185,7 +185,8 @@ fn time_budget_runs_progressive_photon_mapping_pass_after_pass() {
     scene.camera = scene.camera.with_resolution(16, 16);
     let sppm = IntegratorConfig::from_ron("Sppm(photons_per_pass: 2000)")
         .unwrap()
-        .build();
+        .build()
+        .unwrap();
     let out = sppm.render(&scene, &Budget::Seconds(0.3), 1, &NoProgress);
     assert!(out.stats.spp > 3, "passes: {}", out.stats.spp);
     assert_eq!(out.stats.photons, 2000 * out.stats.spp as u64);

@@ -25,7 +25,7 @@ fn main() {
             .unwrap_or_else(|e| panic!("{e}"));
         for (ron, spp) in integrators {
             let config = IntegratorConfig::from_ron(ron).expect("integrator settings");
-            let integrator = config.build();
+            let integrator = config.build().expect("integrator settings");
             let mut one_thread_wall = None;
             for threads in [1, 2] {
                 let pool = rayon::ThreadPoolBuilder::new()

@@ -32,10 +32,10 @@
 //! light point 2, lens 2). Light subpath values come from a second stream keyed by the pixel sample,
 //! so the camera dimensions keep the layout stratified samplers expect.
 
-use crate::config::{BdptConfig, Mis};
+use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
 use crate::film::Film;
 use crate::passes::{PassSpec, Schedule, run_passes};
-use crate::paths::{PathClass, Router};
+use crate::paths::{Layers, PathClass, Router};
 use crate::render::{Counters, PixelVariance};
 use crate::roulette::survives;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
@@ -43,8 +43,113 @@ use glam::{Vec2, Vec3};
 use lightlab_core::{Progress, Ray, Rgb, TransportMode};
 use lightlab_geometry::{NO_LIGHT, spawn_ray, spawn_ray_to, spawn_ray_to_point};
 use lightlab_materials::SurfaceBsdf;
-use lightlab_samplers::{Independent, Sampler, SamplerVisitor};
+use lightlab_samplers::{Independent, Sampler, SamplerConfig, SamplerVisitor};
 use lightlab_scene::{Light, Scene};
+use serde::{Deserialize, Serialize};
+
+/// Settings of bidirectional path tracing: `Bdpt(max_bounces: 8, mis: Balance)`; every field
+/// optional.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields, rename = "Bdpt")]
+pub struct BdptConfig {
+    /// Largest number of scattering vertices of a full path; `None` for no limit. Default `None`.
+    pub max_bounces: Option<u32>,
+    /// Smallest number of scattering vertices a contribution must have. Default 0.
+    pub min_bounces: u32,
+    /// Russian roulette on both subpaths from this many vertices on; `None` turns it off.
+    /// Default `Some(3)`.
+    pub russian_roulette: Option<u32>,
+    /// Sampler of the camera subpaths (the light subpaths use independent samples). Default
+    /// `Independent`.
+    pub sampler: SamplerConfig,
+    /// Strategy weights: `Balance`, `Power`, `Uniform` or `Only(s: S, t: T)`. Default `Balance`.
+    pub mis: Mis,
+    /// Also write every strategy (s, t) as layers `s{s}t{t}` (MIS-weighted; they sum to the image)
+    /// and `s{s}t{t}.unweighted` (the strategy's own estimate of its paths). Needs `max_bounces`.
+    /// Default false.
+    pub strategy_layers: bool,
+    /// Log every contribution larger (in its largest channel) than this multiple of its pixel's
+    /// mean, with its provenance (pixel, sample index, strategy, path class, densities, MIS
+    /// weight), for replay with `lightlab replay`. Non-finite contributions are always logged.
+    /// Default `None` (only non-finite ones).
+    pub outliers: Option<f32>,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
+    pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+    pub layers: Layers,
+}
+
+impl Default for BdptConfig {
+    fn default() -> Self {
+        BdptConfig {
+            max_bounces: None,
+            min_bounces: 0,
+            russian_roulette: default_rr(),
+            sampler: SamplerConfig::Independent,
+            mis: Mis::Balance,
+            strategy_layers: false,
+            outliers: None,
+            paths: None,
+            layers: Layers::Off,
+        }
+    }
+}
+
+impl Validate for BdptConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        check_common(
+            self.max_bounces,
+            self.min_bounces,
+            self.russian_roulette,
+            self.paths.as_deref(),
+            &self.layers,
+        )?;
+        if let Mis::Only { s, t } = self.mis
+            && t == 0
+        {
+            return invalid(format!(
+                "Only(s: {s}, t: 0) is not a strategy: paths must reach the camera, so t ≥ 1"
+            ));
+        }
+        if let Some(f) = self.outliers
+            && !(f > 1.0 && f.is_finite())
+        {
+            return invalid(format!(
+                "outliers is a multiple of the pixel's mean and must be finite and > 1, got {f}"
+            ));
+        }
+        if self.strategy_layers && self.max_bounces.is_none() {
+            return invalid(
+                "strategy_layers needs max_bounces (it bounds the number of strategies)",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// How bidirectional path tracing weights its strategies (Veach 1997, ch. 9).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Mis {
+    /// wᵢ = pᵢ / Σⱼ pⱼ (Veach's balance heuristic).
+    #[default]
+    Balance,
+    /// wᵢ = pᵢ² / Σⱼ pⱼ² (the power heuristic with β = 2).
+    Power,
+    /// wᵢ = 1 / (number of strategies that can produce the path): unweighted averaging.
+    Uniform,
+    /// No MIS: only strategy (s, t), with weight 1 — the paths of s + t − 2 bounces that this one
+    /// strategy samples, for looking at one technique alone.
+    Only { s: u32, t: u32 },
+}
+
+impl Mis {
+    /// Whether strategy (s, t) is left out entirely.
+    pub fn excludes(&self, s: usize, t: usize) -> bool {
+        matches!(*self, Mis::Only { s: os, t: ot } if (os as usize, ot as usize) != (s, t))
+    }
+}
 
 /// Technique numbers for the non-finite counters.
 const CONNECTION: usize = 0;
@@ -275,9 +380,11 @@ pub struct Bdpt {
 }
 
 impl Bdpt {
-    pub fn new(config: BdptConfig) -> Self {
+    /// BDPT with `config` (checked).
+    pub fn new(config: BdptConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
         let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .expect("BDPT settings are validated when parsed");
+            .map_err(ConfigError::Invalid)?;
         let strategies = match (config.strategy_layers, config.max_bounces) {
             (true, Some(max)) => (2..=max as usize + 2)
                 .flat_map(|n| (0..n).map(move |s| (s, n - s)))
@@ -285,11 +392,11 @@ impl Bdpt {
                 .collect(),
             _ => Vec::new(),
         };
-        Bdpt {
+        Ok(Bdpt {
             config,
             router,
             strategies,
-        }
+        })
     }
 
     /// Slot of the weighted layer of strategy (s, t) (the unweighted one follows it), counted from
@@ -1289,16 +1396,11 @@ mod tests {
         for name in ["cornell-box.ron", "caustic-sphere.ron"] {
             let scene = scene(name);
             let bdpt = Bdpt::new(BdptConfig {
-                mis: Mis::Balance,
                 max_bounces: Some(6),
-                min_bounces: 0,
                 russian_roulette: None,
-                sampler: Default::default(),
-                strategy_layers: false,
-                outliers: None,
-                paths: None,
-                layers: Default::default(),
-            });
+                ..BdptConfig::default()
+            })
+            .unwrap();
             let mut counters = Counters::default();
             let mut checked = 0;
             for pixel in 0..200_000u64 {
@@ -1374,16 +1476,11 @@ mod tests {
 
     fn bdpt(max_bounces: u32) -> Bdpt {
         Bdpt::new(BdptConfig {
-            mis: Mis::Balance,
             max_bounces: Some(max_bounces),
-            min_bounces: 0,
             russian_roulette: None,
-            sampler: Default::default(),
-            strategy_layers: false,
-            outliers: None,
-            paths: None,
-            layers: Default::default(),
+            ..BdptConfig::default()
         })
+        .unwrap()
     }
 
     /// The camera subpath that `camera_subpath` traces back through the vertices of the light

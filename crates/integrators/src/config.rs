@@ -1,14 +1,18 @@
-//! Integrator settings as RON, shared by `lightlab render --integrator '...'` and experiment files.
+//! Integrator settings as RON, shared by `lightlab render --integrator '...'` and experiment
+//! files. Each integrator's settings struct lives beside its code (`PathConfig` in `path`,
+//! `LightConfig` in `light`, `BdptConfig` in `bdpt`, `PhotonMapConfig` and `ProgressiveConfig` in
+//! `photon::config`): every field optional (`#[serde(default)]`, the default on its doc comment),
+//! unknown fields errors, checked once by [`Validate`] — by [`IntegratorConfig::from_ron`] and again
+//! by [`IntegratorConfig::build`], so no integrator is ever built from settings it cannot run.
 
 use crate::Integrator;
-use crate::bdpt::Bdpt;
-use crate::light::LightTracer;
-use crate::path::PathTracer;
+use crate::bdpt::{Bdpt, BdptConfig};
+use crate::light::{LightConfig, LightTracer};
+use crate::path::{PathConfig, PathTracer};
 use crate::paths::{Layers, Router};
 use crate::photon::config::{PhotonMapConfig, ProgressiveConfig};
 use crate::photon::pm::PhotonMapper;
 use crate::photon::progressive::{Progressive, Variant};
-use lightlab_samplers::SamplerConfig;
 use serde::{Deserialize, Serialize};
 
 /// Which integrator to run and with what settings, e.g. `Path(max_bounces: 8, strategy: Mis)`.
@@ -34,351 +38,92 @@ pub enum IntegratorConfig {
     Sppm(ProgressiveConfig),
 }
 
-/// Settings of bidirectional path tracing.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(
-    deny_unknown_fields,
-    try_from = "BdptConfigRaw",
-    into = "BdptConfigRaw"
-)]
-pub struct BdptConfig {
-    pub max_bounces: Option<u32>,
-    pub min_bounces: u32,
-    pub russian_roulette: Option<u32>,
-    pub sampler: SamplerConfig,
-    pub mis: Mis,
-    pub strategy_layers: bool,
-    pub outliers: Option<f32>,
-    pub paths: Option<String>,
-    pub layers: Layers,
+/// Settings that cannot be used, and why.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    /// The text is not RON for these settings (an unknown field or variant, a wrong type): where.
+    #[error("{line}:{col}: {message}")]
+    Syntax {
+        line: usize,
+        col: usize,
+        message: String,
+    },
+    /// A value, or a combination of values, outside what the integrator can do.
+    #[error("{0}")]
+    Invalid(String),
 }
 
-/// How bidirectional path tracing weights its strategies (Veach 1997, ch. 9).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Mis {
-    /// wᵢ = pᵢ / Σⱼ pⱼ (Veach's balance heuristic).
-    #[default]
-    Balance,
-    /// wᵢ = pᵢ² / Σⱼ pⱼ² (the power heuristic with β = 2).
-    Power,
-    /// wᵢ = 1 / (number of strategies that can produce the path): unweighted averaging.
-    Uniform,
-    /// No MIS: only strategy (s, t), with weight 1 — the paths of s + t − 2 bounces that this one
-    /// strategy samples, for looking at one technique alone.
-    Only { s: u32, t: u32 },
-}
-
-impl Mis {
-    /// Whether strategy (s, t) is left out entirely.
-    pub fn excludes(&self, s: usize, t: usize) -> bool {
-        matches!(*self, Mis::Only { s: os, t: ot } if (os as usize, ot as usize) != (s, t))
+impl From<ConfigError> for String {
+    fn from(e: ConfigError) -> String {
+        e.to_string()
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, rename = "Bdpt")]
-pub struct BdptConfigRaw {
-    /// Largest number of scattering vertices of a full path; `None` for no limit. Default `None`.
-    #[serde(default)]
-    pub max_bounces: Option<u32>,
-    /// Smallest number of scattering vertices a contribution must have. Default 0.
-    #[serde(default)]
-    pub min_bounces: u32,
-    /// Russian roulette on both subpaths from this many vertices on; `None` turns it off.
-    /// Default `Some(3)`.
-    #[serde(default = "default_rr")]
-    pub russian_roulette: Option<u32>,
-    /// Sampler of the camera subpaths (the light subpaths use independent samples). Default
-    /// `Independent`.
-    #[serde(default)]
-    pub sampler: SamplerConfig,
-    /// Strategy weights: `Balance`, `Power`, `Uniform` or `Only(s: S, t: T)`. Default `Balance`.
-    #[serde(default)]
-    pub mis: Mis,
-    /// Also write every strategy (s, t) as layers `s{s}t{t}` (MIS-weighted; they sum to the image)
-    /// and `s{s}t{t}.unweighted` (the strategy's own estimate of its paths). Needs `max_bounces`.
-    /// Default false.
-    #[serde(default)]
-    pub strategy_layers: bool,
-    /// Log every contribution larger (in its largest channel) than this multiple of its pixel's
-    /// running mean, with its provenance (pixel, sample index, strategy, path class, densities,
-    /// MIS weight), for replay with `lightlab replay`. Non-finite contributions are always logged.
-    /// Default `None` (only non-finite ones).
-    #[serde(default)]
-    pub outliers: Option<f32>,
-    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
-    /// README's "Path classes"); `None` renders every path. Default `None`.
-    #[serde(default)]
-    pub paths: Option<String>,
-    /// Image layers written besides the full image: `Off`, `Bounces` or
-    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    #[serde(default)]
-    pub layers: Layers,
-}
-
-impl TryFrom<BdptConfigRaw> for BdptConfig {
-    type Error = String;
-    fn try_from(r: BdptConfigRaw) -> Result<Self, String> {
-        check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
-        if let Mis::Only { s, t } = r.mis
-            && t == 0
-        {
-            return Err(format!(
-                "Only(s: {s}, t: 0) is not a strategy: paths must reach the camera, so t ≥ 1"
-            ));
-        }
-        Router::check(r.paths.as_deref(), &r.layers)?;
-        if let Some(f) = r.outliers
-            && !(f > 1.0 && f.is_finite())
-        {
-            return Err(format!(
-                "outliers is a multiple of the pixel's running mean and must be finite and > 1, got {f}"
-            ));
-        }
-        if r.strategy_layers && r.max_bounces.is_none() {
-            return Err(
-                "strategy_layers needs max_bounces (it bounds the number of strategies)".into(),
-            );
-        }
-        Ok(BdptConfig {
-            max_bounces: r.max_bounces,
-            min_bounces: r.min_bounces,
-            russian_roulette: r.russian_roulette,
-            sampler: r.sampler,
-            mis: r.mis,
-            strategy_layers: r.strategy_layers,
-            outliers: r.outliers,
-            paths: r.paths,
-            layers: r.layers,
-        })
-    }
-}
-
-impl From<BdptConfig> for BdptConfigRaw {
-    fn from(c: BdptConfig) -> Self {
-        BdptConfigRaw {
-            max_bounces: c.max_bounces,
-            min_bounces: c.min_bounces,
-            russian_roulette: c.russian_roulette,
-            sampler: c.sampler,
-            mis: c.mis,
-            strategy_layers: c.strategy_layers,
-            outliers: c.outliers,
-            paths: c.paths,
-            layers: c.layers,
-        }
-    }
-}
-
-/// Settings of the light tracer.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(
-    deny_unknown_fields,
-    try_from = "LightConfigRaw",
-    into = "LightConfigRaw"
-)]
-pub struct LightConfig {
-    pub max_bounces: Option<u32>,
-    pub min_bounces: u32,
-    pub russian_roulette: Option<u32>,
-    pub paths: Option<String>,
-    pub layers: Layers,
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, rename = "Light")]
-pub struct LightConfigRaw {
-    /// Largest number of scattering vertices (the vertex connected to the camera included); `None`
-    /// for no limit. Default `None`.
-    #[serde(default)]
-    pub max_bounces: Option<u32>,
-    /// Smallest number of scattering vertices a contribution must have. Default 0.
-    #[serde(default)]
-    pub min_bounces: u32,
-    /// Russian roulette from this many scattering vertices on; `None` turns it off. Default `Some(3)`.
-    #[serde(default = "default_rr")]
-    pub russian_roulette: Option<u32>,
-    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
-    /// README's "Path classes"); `None` renders every path. Default `None`.
-    #[serde(default)]
-    pub paths: Option<String>,
-    /// Image layers written besides the full image: `Off`, `Bounces` or
-    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    #[serde(default)]
-    pub layers: Layers,
-}
-
-impl TryFrom<LightConfigRaw> for LightConfig {
-    type Error = String;
-    fn try_from(r: LightConfigRaw) -> Result<Self, String> {
-        check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
-        Router::check(r.paths.as_deref(), &r.layers)?;
-        Ok(LightConfig {
-            max_bounces: r.max_bounces,
-            min_bounces: r.min_bounces,
-            russian_roulette: r.russian_roulette,
-            paths: r.paths,
-            layers: r.layers,
-        })
-    }
-}
-
-impl From<LightConfig> for LightConfigRaw {
-    fn from(c: LightConfig) -> Self {
-        LightConfigRaw {
-            max_bounces: c.max_bounces,
-            min_bounces: c.min_bounces,
-            russian_roulette: c.russian_roulette,
-            paths: c.paths,
-            layers: c.layers,
-        }
-    }
+/// The check every settings struct passes before an integrator is built from it.
+pub trait Validate {
+    fn validate(&self) -> Result<(), ConfigError>;
 }
 
 /// The bounce settings every integrator shares: unbounded paths need Russian roulette, and
-/// `min_bounces ≤ max_bounces`.
-pub(crate) fn check_bounces(
+/// `min_bounces ≤ max_bounces`; and the path-class settings (`paths`, `layers`), which must parse.
+pub(crate) fn check_common(
     max_bounces: Option<u32>,
     min_bounces: u32,
     russian_roulette: Option<u32>,
-) -> Result<(), String> {
+    paths: Option<&str>,
+    layers: &Layers,
+) -> Result<(), ConfigError> {
     if max_bounces.is_none() && russian_roulette.is_none() {
-        return Err("unbounded paths (max_bounces: None) need Russian roulette: set max_bounces or russian_roulette".into());
+        return invalid(
+            "unbounded paths (max_bounces: None) need Russian roulette: set max_bounces or \
+             russian_roulette",
+        );
     }
     if let Some(max) = max_bounces
         && min_bounces > max
     {
-        return Err(format!(
+        return invalid(format!(
             "min_bounces ({min_bounces}) exceeds max_bounces ({max})"
         ));
     }
-    Ok(())
+    Router::check(paths, layers).map_err(ConfigError::Invalid)
 }
 
-/// Settings of the path tracer.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(
-    deny_unknown_fields,
-    try_from = "PathConfigRaw",
-    into = "PathConfigRaw"
-)]
-pub struct PathConfig {
-    pub max_bounces: Option<u32>,
-    pub min_bounces: u32,
-    pub russian_roulette: Option<u32>,
-    pub strategy: Strategy,
-    pub shadows: bool,
-    pub sampler: SamplerConfig,
-    pub paths: Option<String>,
-    pub layers: Layers,
+/// An `Invalid` error.
+pub(crate) fn invalid<T>(message: impl Into<String>) -> Result<T, ConfigError> {
+    Err(ConfigError::Invalid(message.into()))
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, rename = "Path")]
-pub struct PathConfigRaw {
-    /// Largest number of scattering vertices on a path; `None` for no limit (Russian roulette ends
-    /// paths). Default `None`.
-    #[serde(default)]
-    pub max_bounces: Option<u32>,
-    /// Smallest number of scattering vertices a contribution must have: `min_bounces: k,
-    /// max_bounces: k` isolates the k-th term of the Neumann series. Default 0.
-    #[serde(default)]
-    pub min_bounces: u32,
-    /// Russian roulette from this many scattering vertices on (survival probability
-    /// min(1, max channel of the throughput)); `None` turns it off. Default `Some(3)`.
-    #[serde(default = "default_rr")]
-    pub russian_roulette: Option<u32>,
-    /// How directions are chosen at each vertex. Default `Mis`.
-    #[serde(default)]
-    pub strategy: Strategy,
-    /// Test visibility for next-event estimation. `false` computes direct illumination without
-    /// shadows (and then counts emitters only through light sampling; see `Strategy`). Default true.
-    #[serde(default = "yes")]
-    pub shadows: bool,
-    /// Where the sample values come from: `Independent`, `Stratified`, `LatinHypercube`, `Halton`
-    /// or `Sobol` (see `lightlab_samplers::SamplerConfig`). Default `Independent`.
-    #[serde(default)]
-    pub sampler: SamplerConfig,
-    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
-    /// README's "Path classes"); `None` renders every path. Default `None`.
-    #[serde(default)]
-    pub paths: Option<String>,
-    /// Image layers written besides the full image: `Off`, `Bounces` or
-    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    #[serde(default)]
-    pub layers: Layers,
-}
-
-fn default_rr() -> Option<u32> {
+/// Russian roulette's default start, 3 scattering vertices (serde default).
+pub(crate) fn default_rr() -> Option<u32> {
     Some(3)
 }
-fn yes() -> bool {
-    true
-}
 
-/// Sampling strategy of the path tracer, for comparing blind and informed Monte Carlo.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Strategy {
-    /// Light sampling and BSDF sampling combined by the power heuristic (Veach 1997, §9.2).
-    #[default]
-    Mis,
-    /// BSDF sampling only: emitters count when a sampled ray hits them.
-    BsdfOnly,
-    /// Light sampling only: emitters hit by BSDF-sampled rays count only after the camera or a
-    /// specular vertex, where light sampling is impossible.
-    LightOnly,
-    /// Blind Monte Carlo: uniform directions on the hemisphere of the outgoing direction (the whole
-    /// sphere for transmissive rough surfaces), no light sampling; specular vertices are sampled
-    /// by their BSDF.
-    Uniform,
-}
-
-impl TryFrom<PathConfigRaw> for PathConfig {
-    type Error = String;
-    fn try_from(r: PathConfigRaw) -> Result<Self, String> {
-        check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
-        Router::check(r.paths.as_deref(), &r.layers)?;
-        if !r.shadows && matches!(r.strategy, Strategy::BsdfOnly | Strategy::Uniform) {
-            return Err(format!(
-                "shadows: false switches off the visibility test of next-event estimation, which \
-                 strategy {:?} does not do (no light sampling); use it with Mis or LightOnly",
-                r.strategy
-            ));
-        }
-        Ok(PathConfig {
-            max_bounces: r.max_bounces,
-            min_bounces: r.min_bounces,
-            russian_roulette: r.russian_roulette,
-            strategy: r.strategy,
-            shadows: r.shadows,
-            sampler: r.sampler,
-            paths: r.paths,
-            layers: r.layers,
-        })
-    }
-}
-
-impl From<PathConfig> for PathConfigRaw {
-    fn from(c: PathConfig) -> Self {
-        PathConfigRaw {
-            max_bounces: c.max_bounces,
-            min_bounces: c.min_bounces,
-            russian_roulette: c.russian_roulette,
-            strategy: c.strategy,
-            shadows: c.shadows,
-            sampler: c.sampler,
-            paths: c.paths,
-            layers: c.layers,
+impl Validate for IntegratorConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        match self {
+            IntegratorConfig::Path(c) => c.validate(),
+            IntegratorConfig::Light(c) => c.validate(),
+            IntegratorConfig::Bdpt(c) => c.validate(),
+            IntegratorConfig::PhotonMap(c) => c.validate(),
+            IntegratorConfig::Ppm(c) | IntegratorConfig::Sppm(c) => c.validate(),
         }
     }
 }
 
 impl IntegratorConfig {
-    /// Parses RON such as `Path(max_bounces: 8)`. Errors carry line:column.
-    pub fn from_ron(text: &str) -> Result<IntegratorConfig, String> {
-        ron_options()
-            .from_str(text)
-            .map_err(|e| format!("{}:{}: {}", e.span.start.line, e.span.start.col, e.code))
+    /// Parses and checks RON such as `Path(max_bounces: 8)`. Syntax errors carry line:column.
+    pub fn from_ron(text: &str) -> Result<IntegratorConfig, ConfigError> {
+        let config: IntegratorConfig =
+            ron_options()
+                .from_str(text)
+                .map_err(|e| ConfigError::Syntax {
+                    line: e.span.start.line,
+                    col: e.span.start.col,
+                    message: e.code.to_string(),
+                })?;
+        config.validate()?;
+        Ok(config)
     }
 
     /// The settings written back as RON, every field explicit.
@@ -409,7 +154,7 @@ impl IntegratorConfig {
         mut self,
         paths: Option<String>,
         layers: Option<Layers>,
-    ) -> Result<IntegratorConfig, String> {
+    ) -> Result<IntegratorConfig, ConfigError> {
         let (p, l) = self.paths_and_layers();
         if let Some(paths) = paths {
             *p = Some(paths);
@@ -417,19 +162,21 @@ impl IntegratorConfig {
         if let Some(layers) = layers {
             *l = layers;
         }
-        Router::check(p.as_deref(), l)?;
+        self.validate()?;
         Ok(self)
     }
 
-    pub fn build(&self) -> Box<dyn Integrator> {
-        match self {
-            IntegratorConfig::Path(c) => Box::new(PathTracer::new(c.clone())),
-            IntegratorConfig::Light(c) => Box::new(LightTracer::new(c.clone())),
-            IntegratorConfig::Bdpt(c) => Box::new(Bdpt::new(c.clone())),
-            IntegratorConfig::PhotonMap(c) => Box::new(PhotonMapper::new(c.clone())),
-            IntegratorConfig::Ppm(c) => Box::new(Progressive::new(c.clone(), Variant::Ppm)),
-            IntegratorConfig::Sppm(c) => Box::new(Progressive::new(c.clone(), Variant::Sppm)),
-        }
+    /// The integrator these settings describe, after checking them.
+    pub fn build(&self) -> Result<Box<dyn Integrator>, ConfigError> {
+        self.validate()?;
+        Ok(match self {
+            IntegratorConfig::Path(c) => Box::new(PathTracer::new(c.clone())?),
+            IntegratorConfig::Light(c) => Box::new(LightTracer::new(c.clone())?),
+            IntegratorConfig::Bdpt(c) => Box::new(Bdpt::new(c.clone())?),
+            IntegratorConfig::PhotonMap(c) => Box::new(PhotonMapper::new(c.clone())?),
+            IntegratorConfig::Ppm(c) => Box::new(Progressive::new(c.clone(), Variant::Ppm)?),
+            IntegratorConfig::Sppm(c) => Box::new(Progressive::new(c.clone(), Variant::Sppm)?),
+        })
     }
 }
 
@@ -444,6 +191,7 @@ pub fn ron_options() -> ron::Options {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::path::Strategy;
 
     #[test]
     fn parses_defaults_and_round_trips() {
@@ -487,28 +235,38 @@ mod tests {
 
     #[test]
     fn rejects_bad_settings_with_position() {
-        let e = IntegratorConfig::from_ron("Path(max_bounce: 8)").unwrap_err();
+        let e = IntegratorConfig::from_ron("Path(max_bounce: 8)")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("1:") && e.contains("max_bounce"), "{e}");
         let e = IntegratorConfig::from_ron("Path(max_bounces: None, russian_roulette: None)")
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("Russian roulette"), "{e}");
-        let e = IntegratorConfig::from_ron("Path(max_bounces: 2, min_bounces: 3)").unwrap_err();
+        let e = IntegratorConfig::from_ron("Path(max_bounces: 2, min_bounces: 3)")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("min_bounces"), "{e}");
-        let e = IntegratorConfig::from_ron("Path(max_bounces: -1)").unwrap_err();
+        let e = IntegratorConfig::from_ron("Path(max_bounces: -1)")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("1:"), "{e}");
         assert!(
             IntegratorConfig::from_ron("Pth()")
                 .unwrap_err()
+                .to_string()
                 .contains("Path")
         );
         assert!(
             IntegratorConfig::from_ron("Light(strategy: Mis)")
                 .unwrap_err()
+                .to_string()
                 .contains("strategy")
         );
         assert!(
             IntegratorConfig::from_ron("Light(min_bounces: 3, max_bounces: 1)")
                 .unwrap_err()
+                .to_string()
                 .contains("min_bounces")
         );
         for (bad, words) in [
@@ -529,12 +287,13 @@ mod tests {
             ("PhotonMap(indirect: FinalGather(rays: 0))", "FinalGather"),
             ("PhotonMap(kernel: Gaussian)", "Epanechnikov"),
         ] {
-            let e = IntegratorConfig::from_ron(bad).unwrap_err();
-            assert!(e.contains(words) && e.contains(':'), "{bad}: {e}");
+            let e = IntegratorConfig::from_ron(bad).unwrap_err().to_string();
+            assert!(e.contains(words), "{bad}: {e}");
         }
         assert!(
             IntegratorConfig::from_ron("Path(sampler: Sobl)")
                 .unwrap_err()
+                .to_string()
                 .contains("Sobol")
         );
     }

@@ -19,9 +19,12 @@ mod render;
 mod roulette;
 mod sink;
 
-pub use config::{BdptConfig, IntegratorConfig, LightConfig, Mis, Strategy};
+pub use bdpt::{BdptConfig, Mis};
+pub use config::{ConfigError, IntegratorConfig, Validate};
 pub use film::{Film, PixelSums};
+pub use light::LightConfig;
 pub use passes::Budget;
+pub use path::{PathConfig, Strategy};
 pub use photon::config::{
     Gather, Indirect, Length, PhotonMapConfig, ProgressiveConfig, RadiusUpdate,
 };

@@ -22,9 +22,9 @@
 //! (seed, path index), and the driver adds splats in a fixed order, so the image is bit-identical
 //! on any number of threads.
 
-use crate::config::LightConfig;
+use crate::config::{ConfigError, Validate, check_common, default_rr};
 use crate::passes::{PassSpec, Schedule, run_passes};
-use crate::paths::{PathClass, Router};
+use crate::paths::{Layers, PathClass, Router};
 use crate::render::{Counters, PixelVariance, named};
 use crate::roulette::survives;
 use crate::sink::Sink;
@@ -35,6 +35,50 @@ use lightlab_geometry::{spawn_ray, spawn_ray_to_point};
 use lightlab_materials::SurfaceBsdf;
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::{Light, Scene};
+use serde::{Deserialize, Serialize};
+
+/// Settings of the light tracer: `Light(max_bounces: 8)`; every field optional.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields, rename = "Light")]
+pub struct LightConfig {
+    /// Largest number of scattering vertices (the vertex connected to the camera included); `None`
+    /// for no limit. Default `None`.
+    pub max_bounces: Option<u32>,
+    /// Smallest number of scattering vertices a contribution must have. Default 0.
+    pub min_bounces: u32,
+    /// Russian roulette from this many scattering vertices on; `None` turns it off. Default `Some(3)`.
+    pub russian_roulette: Option<u32>,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
+    pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+    pub layers: Layers,
+}
+
+impl Default for LightConfig {
+    fn default() -> Self {
+        LightConfig {
+            max_bounces: None,
+            min_bounces: 0,
+            russian_roulette: default_rr(),
+            paths: None,
+            layers: Layers::Off,
+        }
+    }
+}
+
+impl Validate for LightConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        check_common(
+            self.max_bounces,
+            self.min_bounces,
+            self.russian_roulette,
+            self.paths.as_deref(),
+            &self.layers,
+        )
+    }
+}
 
 /// Technique number for the non-finite counter.
 const CONNECTION: usize = 0;
@@ -45,10 +89,12 @@ pub struct LightTracer {
 }
 
 impl LightTracer {
-    pub fn new(config: LightConfig) -> Self {
+    /// A light tracer with `config` (checked).
+    pub fn new(config: LightConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
         let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .expect("light settings are validated when parsed");
-        LightTracer { config, router }
+            .map_err(ConfigError::Invalid)?;
+        Ok(LightTracer { config, router })
     }
 
     /// Connects a vertex to the camera; `value_toward` gives what leaves the vertex toward the lens

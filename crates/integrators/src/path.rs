@@ -10,10 +10,10 @@
 //! 2–3 lens, then per scattering vertex 7 values: light choice (1), point on the light (2), BSDF lobe
 //! (1), BSDF direction (2), Russian roulette (1) — consumed whether or not they are used.
 
-use crate::config::{PathConfig, Strategy};
+use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
 use crate::nee::{emitted, environment_light_pdf, light_pdf_of_hit, sample_direct};
 use crate::passes::{PassSpec, Schedule, run_passes};
-use crate::paths::{PathClass, Router};
+use crate::paths::{Layers, PathClass, Router};
 use crate::render::{Counters, PixelVariance, named};
 use crate::roulette::survives;
 use crate::sink::Sink;
@@ -24,8 +24,90 @@ use lightlab_geometry::{NO_LIGHT, spawn_ray};
 use lightlab_materials::{Bsdf, SurfaceBsdf};
 use lightlab_samplers::mis::power_heuristic;
 use lightlab_samplers::warp::{square_to_uniform_hemisphere, square_to_uniform_sphere};
-use lightlab_samplers::{Sampler, SamplerVisitor};
+use lightlab_samplers::{Sampler, SamplerConfig, SamplerVisitor};
 use lightlab_scene::Scene;
+use serde::{Deserialize, Serialize};
+
+/// Settings of the path tracer: `Path(max_bounces: 8, strategy: Mis)`; every field optional.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields, rename = "Path")]
+pub struct PathConfig {
+    /// Largest number of scattering vertices on a path; `None` for no limit (Russian roulette ends
+    /// paths). Default `None`.
+    pub max_bounces: Option<u32>,
+    /// Smallest number of scattering vertices a contribution must have: `min_bounces: k,
+    /// max_bounces: k` isolates the k-th term of the Neumann series. Default 0.
+    pub min_bounces: u32,
+    /// Russian roulette from this many scattering vertices on (survival probability
+    /// min(1, max channel of the throughput)); `None` turns it off. Default `Some(3)`.
+    pub russian_roulette: Option<u32>,
+    /// How directions are chosen at each vertex. Default `Mis`.
+    pub strategy: Strategy,
+    /// Test visibility for next-event estimation. `false` computes direct illumination without
+    /// shadows (only with `Mis` or `LightOnly`, which sample lights). Default true.
+    pub shadows: bool,
+    /// Where the sample values come from: `Independent`, `Stratified`, `LatinHypercube`, `Halton`
+    /// or `Sobol` (see `lightlab_samplers::SamplerConfig`). Default `Independent`.
+    pub sampler: SamplerConfig,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
+    pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+    pub layers: Layers,
+}
+
+impl Default for PathConfig {
+    fn default() -> Self {
+        PathConfig {
+            max_bounces: None,
+            min_bounces: 0,
+            russian_roulette: default_rr(),
+            strategy: Strategy::Mis,
+            shadows: true,
+            sampler: SamplerConfig::Independent,
+            paths: None,
+            layers: Layers::Off,
+        }
+    }
+}
+
+impl Validate for PathConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        check_common(
+            self.max_bounces,
+            self.min_bounces,
+            self.russian_roulette,
+            self.paths.as_deref(),
+            &self.layers,
+        )?;
+        if !self.shadows && matches!(self.strategy, Strategy::BsdfOnly | Strategy::Uniform) {
+            return invalid(format!(
+                "shadows: false switches off the visibility test of next-event estimation, which \
+                 strategy {:?} does not do (no light sampling); use it with Mis or LightOnly",
+                self.strategy
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Sampling strategy of the path tracer, for comparing blind and informed Monte Carlo.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Strategy {
+    /// Light sampling and BSDF sampling combined by the power heuristic (Veach 1997, §9.2).
+    #[default]
+    Mis,
+    /// BSDF sampling only: emitters count when a sampled ray hits them.
+    BsdfOnly,
+    /// Light sampling only: emitters hit by BSDF-sampled rays count only after the camera or a
+    /// specular vertex, where light sampling is impossible.
+    LightOnly,
+    /// Blind Monte Carlo: uniform directions on the hemisphere of the outgoing direction (the whole
+    /// sphere for transmissive rough surfaces), no light sampling; specular vertices are sampled
+    /// by their BSDF.
+    Uniform,
+}
 
 /// Technique numbers for the non-finite counters.
 const EMISSION: usize = 0;
@@ -37,10 +119,12 @@ pub struct PathTracer {
 }
 
 impl PathTracer {
-    pub fn new(config: PathConfig) -> Self {
+    /// A path tracer with `config` (checked).
+    pub fn new(config: PathConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
         let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .expect("path settings are validated when parsed");
-        PathTracer { config, router }
+            .map_err(ConfigError::Invalid)?;
+        Ok(PathTracer { config, router })
     }
 
     /// Whether next-event estimation is done at non-specular vertices.

@@ -1,7 +1,8 @@
 //! Settings of the photon-mapping integrators, as RON (`PhotonMap(...)`, `Ppm(...)`, `Sppm(...)`).
 
 use super::map::{Kernel, Search};
-use crate::paths::{Layers, Router};
+use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
+use crate::paths::Layers;
 use serde::{Deserialize, Serialize};
 
 /// A length given absolutely (scene units) or as a fraction of the radius of the scene's bounding
@@ -122,104 +123,123 @@ pub enum Indirect {
     FinalGather { rays: u32 },
 }
 
-/// Settings of Jensen's two-pass photon mapping.
+/// Settings of Jensen's two-pass photon mapping: `PhotonMap(photons: 1_000_000)`; every field
+/// optional.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(
-    deny_unknown_fields,
-    try_from = "PhotonMapConfigRaw",
-    into = "PhotonMapConfigRaw"
-)]
+#[serde(default, deny_unknown_fields, rename = "PhotonMap")]
 pub struct PhotonMapConfig {
-    pub max_bounces: Option<u32>,
-    pub min_bounces: u32,
-    pub russian_roulette: Option<u32>,
-    pub photons: u64,
-    pub caustic_photons: u64,
-    pub gather: Gather,
-    pub caustic_gather: Gather,
-    pub kernel: Kernel,
-    pub direct: bool,
-    pub caustics: bool,
-    pub indirect: Indirect,
-    pub trace_glossy: bool,
-    pub paths: Option<String>,
-    pub layers: Layers,
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, rename = "PhotonMap")]
-pub struct PhotonMapConfigRaw {
     /// Largest number of scattering vertices of a path, as for every integrator; `None` for no
     /// limit. Default `None`.
-    #[serde(default)]
     pub max_bounces: Option<u32>,
     /// Smallest number of scattering vertices a contribution must have. Default 0.
-    #[serde(default)]
     pub min_bounces: u32,
     /// Russian roulette on camera and photon paths from this many vertices on. Default `Some(3)`.
-    #[serde(default = "default_rr")]
     pub russian_roulette: Option<u32>,
     /// Photon paths traced for the global map. Default 200 000.
-    #[serde(default = "default_photons")]
     pub photons: u64,
     /// Photon paths traced for the caustic map (only their `L S+ X` photons are kept).
     /// Default 200 000.
-    #[serde(default = "default_photons")]
     pub caustic_photons: u64,
     /// Gathering from the global map. Default `Nearest(k: 50, max_radius: Relative(0.1))`.
-    #[serde(default = "default_gather")]
     pub gather: Gather,
     /// Gathering from the caustic map. Default `Nearest(k: 50, max_radius: Relative(0.02))`.
-    #[serde(default = "default_caustic_gather")]
     pub caustic_gather: Gather,
     /// Density-estimation kernel: `Uniform`, `Cone` or `Epanechnikov`. Default `Uniform`.
-    #[serde(default)]
     pub kernel: Kernel,
     /// Direct lighting by next-event estimation at the visible point (`L D S* E`). Default true.
-    #[serde(default = "yes")]
     pub direct: bool,
     /// Caustics from the caustic map (`L S+ D S* E`). Default true.
-    #[serde(default = "yes")]
     pub caustics: bool,
     /// Indirect diffuse light: `Off`, `Direct` or `FinalGather(rays: N)`.
     /// Default `FinalGather(rays: 16)`.
-    #[serde(default = "default_indirect")]
     pub indirect: Indirect,
     /// Trace camera paths through glossy surfaces (path tracing there) instead of gathering
     /// photons on them. Default true.
-    #[serde(default = "yes")]
     pub trace_glossy: bool,
     /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
     /// README's "Path classes"); `None` renders every path. Default `None`.
-    #[serde(default)]
     pub paths: Option<String>,
     /// Image layers written besides the full image: `Off`, `Bounces` or
     /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    #[serde(default)]
     pub layers: Layers,
 }
 
+impl Default for PhotonMapConfig {
+    fn default() -> Self {
+        PhotonMapConfig {
+            max_bounces: None,
+            min_bounces: 0,
+            russian_roulette: default_rr(),
+            photons: 200_000,
+            caustic_photons: 200_000,
+            gather: Gather::Nearest {
+                k: 50,
+                max_radius: Length::Relative(0.1),
+            },
+            caustic_gather: Gather::Nearest {
+                k: 50,
+                max_radius: Length::Relative(0.02),
+            },
+            kernel: Kernel::Uniform,
+            direct: true,
+            caustics: true,
+            indirect: Indirect::FinalGather { rays: 16 },
+            trace_glossy: true,
+            paths: None,
+            layers: Layers::Off,
+        }
+    }
+}
+
 /// Settings of progressive photon mapping (`Ppm`: visible points fixed, Hachisuka et al. 2008;
-/// `Sppm`: new visible points every pass, Hachisuka & Jensen 2009). The budget's samples per pixel
-/// are the number of passes.
+/// `Sppm`: new visible points every pass, Hachisuka & Jensen 2009): `Sppm(alpha: 0.7)`; every
+/// field optional. The budget's samples per pixel are the number of passes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(
-    deny_unknown_fields,
-    try_from = "ProgressiveConfigRaw",
-    into = "ProgressiveConfigRaw"
-)]
+#[serde(default, deny_unknown_fields, rename = "Sppm")]
 pub struct ProgressiveConfig {
+    /// Largest number of scattering vertices of a path; `None` for no limit. Default `None`.
     pub max_bounces: Option<u32>,
+    /// Smallest number of scattering vertices a contribution must have. Default 0.
     pub min_bounces: u32,
+    /// Russian roulette on camera and photon paths from this many vertices on. Default `Some(3)`.
     pub russian_roulette: Option<u32>,
+    /// Photon paths per pass. Default 100 000.
     pub photons_per_pass: u64,
+    /// Initial gather radius r₁. Default `Relative(0.02)` (2 % of the scene's bounding radius).
     pub radius: Length,
+    /// Fraction of new photons kept per pass, 0 < α < 1. Default 2/3 (the asymptotically best
+    /// trade of bias and variance, Knaus & Zwicker 2011).
     pub alpha: f32,
+    /// Radius schedule: `Local` or `Global`. Default `Local`.
     pub update: RadiusUpdate,
+    /// Density-estimation kernel. Default `Uniform`.
     pub kernel: Kernel,
+    /// Trace camera paths through glossy surfaces instead of gathering on them. Default true.
     pub trace_glossy: bool,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
     pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
     pub layers: Layers,
+}
+
+impl Default for ProgressiveConfig {
+    fn default() -> Self {
+        ProgressiveConfig {
+            max_bounces: None,
+            min_bounces: 0,
+            russian_roulette: default_rr(),
+            photons_per_pass: 100_000,
+            radius: Length::Relative(0.02),
+            alpha: 2.0 / 3.0,
+            update: RadiusUpdate::Local,
+            kernel: Kernel::Uniform,
+            trace_glossy: true,
+            paths: None,
+            layers: Layers::Off,
+        }
+    }
 }
 
 /// How the gather radius shrinks from pass to pass; both give r_i² ∝ i^(α−1) (see `progressive`).
@@ -233,84 +253,9 @@ pub enum RadiusUpdate {
     Global,
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, rename = "Sppm")]
-pub struct ProgressiveConfigRaw {
-    /// Largest number of scattering vertices of a path; `None` for no limit. Default `None`.
-    #[serde(default)]
-    pub max_bounces: Option<u32>,
-    /// Smallest number of scattering vertices a contribution must have. Default 0.
-    #[serde(default)]
-    pub min_bounces: u32,
-    /// Russian roulette on camera and photon paths from this many vertices on. Default `Some(3)`.
-    #[serde(default = "default_rr")]
-    pub russian_roulette: Option<u32>,
-    /// Photon paths per pass. Default 100 000.
-    #[serde(default = "default_photons_per_pass")]
-    pub photons_per_pass: u64,
-    /// Initial gather radius r₁. Default `Relative(0.02)` (2 % of the scene's bounding radius).
-    #[serde(default = "default_radius")]
-    pub radius: Length,
-    /// Fraction of new photons kept per pass, 0 < α < 1. Default 2/3 (the asymptotically best
-    /// trade of bias and variance, Knaus & Zwicker 2011).
-    #[serde(default = "default_alpha")]
-    pub alpha: f32,
-    /// Radius schedule: `Local` or `Global`. Default `Local`.
-    #[serde(default)]
-    pub update: RadiusUpdate,
-    /// Density-estimation kernel. Default `Uniform`.
-    #[serde(default)]
-    pub kernel: Kernel,
-    /// Trace camera paths through glossy surfaces instead of gathering on them. Default true.
-    #[serde(default = "yes")]
-    pub trace_glossy: bool,
-    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
-    /// README's "Path classes"); `None` renders every path. Default `None`.
-    #[serde(default)]
-    pub paths: Option<String>,
-    /// Image layers written besides the full image: `Off`, `Bounces` or
-    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    #[serde(default)]
-    pub layers: Layers,
-}
-
-fn default_rr() -> Option<u32> {
-    Some(3)
-}
-fn yes() -> bool {
-    true
-}
-fn default_photons() -> u64 {
-    200_000
-}
-fn default_photons_per_pass() -> u64 {
-    100_000
-}
-fn default_gather() -> Gather {
-    Gather::Nearest {
-        k: 50,
-        max_radius: Length::Relative(0.1),
-    }
-}
-fn default_caustic_gather() -> Gather {
-    Gather::Nearest {
-        k: 50,
-        max_radius: Length::Relative(0.02),
-    }
-}
-fn default_indirect() -> Indirect {
-    Indirect::FinalGather { rays: 16 }
-}
-fn default_radius() -> Length {
-    Length::Relative(0.02)
-}
-fn default_alpha() -> f32 {
-    2.0 / 3.0
-}
-
-fn check_photons(n: u64, what: &str) -> Result<(), String> {
+fn check_photons(n: u64, what: &str) -> Result<(), ConfigError> {
     if n == 0 || n > u32::MAX as u64 {
-        return Err(format!(
+        return invalid(format!(
             "{what} must be between 1 and {}, got {n}",
             u32::MAX
         ));
@@ -318,101 +263,45 @@ fn check_photons(n: u64, what: &str) -> Result<(), String> {
     Ok(())
 }
 
-impl TryFrom<PhotonMapConfigRaw> for PhotonMapConfig {
-    type Error = String;
-    fn try_from(r: PhotonMapConfigRaw) -> Result<Self, String> {
-        crate::config::check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
-        check_photons(r.photons, "photons")?;
-        check_photons(r.caustic_photons, "caustic_photons")?;
-        r.gather.check("gather")?;
-        r.caustic_gather.check("caustic_gather")?;
-        if r.indirect == (Indirect::FinalGather { rays: 0 }) {
-            return Err("FinalGather needs at least 1 ray (or use indirect: Direct or Off)".into());
+impl Validate for PhotonMapConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        check_common(
+            self.max_bounces,
+            self.min_bounces,
+            self.russian_roulette,
+            self.paths.as_deref(),
+            &self.layers,
+        )?;
+        check_photons(self.photons, "photons")?;
+        check_photons(self.caustic_photons, "caustic_photons")?;
+        self.gather.check("gather").map_err(ConfigError::Invalid)?;
+        self.caustic_gather
+            .check("caustic_gather")
+            .map_err(ConfigError::Invalid)?;
+        if self.indirect == (Indirect::FinalGather { rays: 0 }) {
+            return invalid("FinalGather needs at least 1 ray (or use indirect: Direct or Off)");
         }
-        Router::check(r.paths.as_deref(), &r.layers)?;
-        Ok(PhotonMapConfig {
-            max_bounces: r.max_bounces,
-            min_bounces: r.min_bounces,
-            russian_roulette: r.russian_roulette,
-            photons: r.photons,
-            caustic_photons: r.caustic_photons,
-            gather: r.gather,
-            caustic_gather: r.caustic_gather,
-            kernel: r.kernel,
-            direct: r.direct,
-            caustics: r.caustics,
-            indirect: r.indirect,
-            trace_glossy: r.trace_glossy,
-            paths: r.paths,
-            layers: r.layers,
-        })
+        Ok(())
     }
 }
 
-impl From<PhotonMapConfig> for PhotonMapConfigRaw {
-    fn from(c: PhotonMapConfig) -> Self {
-        PhotonMapConfigRaw {
-            max_bounces: c.max_bounces,
-            min_bounces: c.min_bounces,
-            russian_roulette: c.russian_roulette,
-            photons: c.photons,
-            caustic_photons: c.caustic_photons,
-            gather: c.gather,
-            caustic_gather: c.caustic_gather,
-            kernel: c.kernel,
-            direct: c.direct,
-            caustics: c.caustics,
-            indirect: c.indirect,
-            trace_glossy: c.trace_glossy,
-            paths: c.paths,
-            layers: c.layers,
-        }
-    }
-}
-
-impl TryFrom<ProgressiveConfigRaw> for ProgressiveConfig {
-    type Error = String;
-    fn try_from(r: ProgressiveConfigRaw) -> Result<Self, String> {
-        crate::config::check_bounces(r.max_bounces, r.min_bounces, r.russian_roulette)?;
-        check_photons(r.photons_per_pass, "photons_per_pass")?;
-        r.radius.check("radius")?;
-        if !(r.alpha > 0.0 && r.alpha < 1.0) {
-            return Err(format!(
+impl Validate for ProgressiveConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        check_common(
+            self.max_bounces,
+            self.min_bounces,
+            self.russian_roulette,
+            self.paths.as_deref(),
+            &self.layers,
+        )?;
+        check_photons(self.photons_per_pass, "photons_per_pass")?;
+        self.radius.check("radius").map_err(ConfigError::Invalid)?;
+        if !(self.alpha > 0.0 && self.alpha < 1.0) {
+            return invalid(format!(
                 "alpha must lie strictly between 0 and 1 (the fraction of photons kept per pass), got {}",
-                r.alpha
+                self.alpha
             ));
         }
-        Router::check(r.paths.as_deref(), &r.layers)?;
-        Ok(ProgressiveConfig {
-            max_bounces: r.max_bounces,
-            min_bounces: r.min_bounces,
-            russian_roulette: r.russian_roulette,
-            photons_per_pass: r.photons_per_pass,
-            radius: r.radius,
-            alpha: r.alpha,
-            update: r.update,
-            kernel: r.kernel,
-            trace_glossy: r.trace_glossy,
-            paths: r.paths,
-            layers: r.layers,
-        })
-    }
-}
-
-impl From<ProgressiveConfig> for ProgressiveConfigRaw {
-    fn from(c: ProgressiveConfig) -> Self {
-        ProgressiveConfigRaw {
-            max_bounces: c.max_bounces,
-            min_bounces: c.min_bounces,
-            russian_roulette: c.russian_roulette,
-            photons_per_pass: c.photons_per_pass,
-            radius: c.radius,
-            alpha: c.alpha,
-            update: c.update,
-            kernel: c.kernel,
-            trace_glossy: c.trace_glossy,
-            paths: c.paths,
-            layers: c.layers,
-        }
+        Ok(())
     }
 }

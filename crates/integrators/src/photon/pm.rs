@@ -59,10 +59,13 @@ pub struct PhotonMapper {
 }
 
 impl PhotonMapper {
-    pub fn new(config: PhotonMapConfig) -> Self {
+    /// A photon mapper with `config` (checked).
+    pub fn new(config: PhotonMapConfig) -> Result<Self, crate::config::ConfigError> {
+        use crate::config::Validate;
+        config.validate()?;
         let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .expect("photon-map settings are validated when parsed");
-        PhotonMapper { config, router }
+            .map_err(crate::config::ConfigError::Invalid)?;
+        Ok(PhotonMapper { config, router })
     }
 
     fn walk(&self) -> Walk {

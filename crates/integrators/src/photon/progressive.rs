@@ -78,14 +78,20 @@ struct PixelState {
 }
 
 impl Progressive {
-    pub fn new(config: ProgressiveConfig, variant: Variant) -> Self {
+    /// Progressive photon mapping (`variant`) with `config` (checked).
+    pub fn new(
+        config: ProgressiveConfig,
+        variant: Variant,
+    ) -> Result<Self, crate::config::ConfigError> {
+        use crate::config::Validate;
+        config.validate()?;
         let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .expect("progressive photon-mapping settings are validated when parsed");
-        Progressive {
+            .map_err(crate::config::ConfigError::Invalid)?;
+        Ok(Progressive {
             config,
             variant,
             router,
-        }
+        })
     }
 
     fn name(&self) -> &'static str {
