@@ -36,15 +36,17 @@ use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
 use crate::film::Film;
 use crate::passes::{PassSpec, Schedule, run_passes};
 use crate::paths::{Layers, PathClass, Router};
-use crate::render::{Counters, PixelVariance};
-use crate::roulette::survives;
+use crate::render::{Counters, PixelVariance, Technique};
+use crate::walk::{
+    Arrival, Directions, Kind, PathVertex, Visitor, Walk, connect_to_lens, from_camera, from_light,
+    geometry_term, unoccluded,
+};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 use lightlab_core::{Progress, Ray, Rgb, TransportMode};
-use lightlab_geometry::{NO_LIGHT, spawn_ray, spawn_ray_to, spawn_ray_to_point};
-use lightlab_materials::SurfaceBsdf;
+use lightlab_materials::BsdfSample;
 use lightlab_samplers::{Independent, Sampler, SamplerConfig, SamplerVisitor};
-use lightlab_scene::{Light, Scene};
+use lightlab_scene::Scene;
 use serde::{Deserialize, Serialize};
 
 /// Settings of bidirectional path tracing: `Bdpt(max_bounces: 8, mis: Balance)`; every field
@@ -151,227 +153,6 @@ impl Mis {
     }
 }
 
-/// Technique numbers for the non-finite counters.
-const CONNECTION: usize = 0;
-const SPLAT: usize = 1;
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Kind {
-    Camera,
-    /// A light's origin vertex, or a point sampled on light `light`.
-    Light {
-        light: u32,
-    },
-    Surface,
-}
-
-/// One vertex of a subpath (pbrt-v4 §16.3.1).
-#[derive(Clone, Copy, Debug)]
-struct Vertex {
-    kind: Kind,
-    p: Vec3,
-    p_error: Vec3,
-    /// Geometric normal (zero for point lights and the camera; the direction of travel for an
-    /// infinite light).
-    ng: Vec3,
-    /// Shading normal (= ng where there is no shading frame).
-    ns: Vec3,
-    sb: Option<SurfaceBsdf>,
-    /// Light id of an emissive surface hit, `NO_LIGHT` otherwise.
-    emitter: u32,
-    beta: Rgb,
-    pdf_fwd: f32,
-    pdf_rev: f32,
-    delta: bool,
-    /// An emitter at infinity (environment): `ng` is the direction the light travels.
-    infinite: bool,
-    /// Scattering vertices of the subpath from its origin up to and including this one.
-    class: PathClass,
-}
-
-impl Vertex {
-    fn new(kind: Kind, p: Vec3, beta: Rgb) -> Vertex {
-        Vertex {
-            kind,
-            p,
-            p_error: Vec3::ZERO,
-            ng: Vec3::ZERO,
-            ns: Vec3::ZERO,
-            sb: None,
-            emitter: NO_LIGHT,
-            beta,
-            pdf_fwd: 0.0,
-            pdf_rev: 0.0,
-            delta: false,
-            infinite: false,
-            class: PathClass::EMPTY,
-        }
-    }
-
-    fn on_surface(&self) -> bool {
-        self.ng != Vec3::ZERO && !self.infinite
-    }
-
-    /// The light this vertex emits as, if any.
-    fn light(&self) -> Option<u32> {
-        match self.kind {
-            Kind::Light { light } => Some(light),
-            Kind::Surface if self.emitter != NO_LIGHT => Some(self.emitter),
-            _ => None,
-        }
-    }
-
-    fn connectible(&self, scene: &Scene) -> bool {
-        match self.kind {
-            Kind::Camera => true,
-            Kind::Light { light } => {
-                !self.infinite || !matches!(scene.lights[light as usize], Light::Environment { .. })
-            }
-            Kind::Surface => !self.delta,
-        }
-    }
-
-    /// f toward `next` for arrival from `prev` (surface vertices), in `mode`.
-    fn f(&self, prev: &Vertex, next: &Vertex, mode: TransportMode) -> Rgb {
-        match &self.sb {
-            Some(sb) => {
-                sb.eval(
-                    (prev.p - self.p).normalize(),
-                    (next.p - self.p).normalize(),
-                    mode,
-                )
-                .f
-            }
-            None => Rgb::BLACK,
-        }
-    }
-
-    /// Radiance this vertex emits toward `to`.
-    fn le(&self, scene: &Scene, to: &Vertex) -> Rgb {
-        let Some(light) = self.light() else {
-            return Rgb::BLACK;
-        };
-        match scene.lights[light as usize] {
-            Light::Area {
-                radiance,
-                two_sided,
-                ..
-            } => Light::area_le(radiance, two_sided, self.ng, (to.p - self.p).normalize()),
-            Light::Environment { radiance } if self.infinite => radiance,
-            _ => Rgb::BLACK,
-        }
-    }
-
-    /// Converts a solid-angle density of the direction from `self` to `next` into an area density at
-    /// `next` (solid angle kept for an infinite `next`).
-    fn convert_density(&self, pdf_w: f32, next: &Vertex) -> f32 {
-        if next.infinite {
-            return pdf_w;
-        }
-        let w = next.p - self.p;
-        let d2 = w.length_squared();
-        if !(d2 > 0.0) {
-            return 0.0;
-        }
-        let mut pdf = pdf_w / d2;
-        if next.on_surface() {
-            pdf *= next.ng.dot(w / d2.sqrt()).abs();
-        }
-        pdf
-    }
-
-    /// Area density at `next` of sampling the direction self → next, having arrived from `prev`.
-    fn pdf(&self, scene: &Scene, prev: Option<&Vertex>, next: &Vertex) -> f32 {
-        if matches!(self.kind, Kind::Light { .. }) {
-            return self.pdf_light(scene, next);
-        }
-        let w_next = direction(self, next);
-        let pdf_w = match self.kind {
-            Kind::Camera => scene.camera.pdf_we_dir(self.p, w_next),
-            _ => match (&self.sb, prev) {
-                (Some(sb), Some(prev)) => sb.pdf(direction(self, prev), w_next),
-                _ => 0.0,
-            },
-        };
-        self.convert_density(pdf_w, next)
-    }
-
-    /// Area density at `v` of this emitter sending light toward `v` (pbrt-v4 `PdfLight`).
-    fn pdf_light(&self, scene: &Scene, v: &Vertex) -> f32 {
-        let Some(light) = self.light() else {
-            return 0.0;
-        };
-        let l = &scene.lights[light as usize];
-        if self.infinite {
-            // Rays from infinity start on a disk of the scene radius: area density 1/(πR²),
-            // converted by the cosine at `v`.
-            let (pdf_pos, _) = l.pdf_le(scene.shapes(), scene.radius, Vec3::ZERO, self.ng);
-            return if v.on_surface() {
-                pdf_pos * v.ng.dot(self.ng).abs()
-            } else {
-                pdf_pos
-            };
-        }
-        let w = v.p - self.p;
-        let d2 = w.length_squared();
-        if !(d2 > 0.0) {
-            return 0.0;
-        }
-        let w = w / d2.sqrt();
-        let (_, pdf_dir) = l.pdf_le(scene.shapes(), scene.radius, self.ng, w);
-        let mut pdf = pdf_dir / d2;
-        if v.on_surface() {
-            pdf *= v.ng.dot(w).abs();
-        }
-        pdf
-    }
-
-    /// Density of this vertex as the origin of a light subpath: light choice × area density
-    /// (pbrt-v4 `PdfLightOrigin`); for an infinite light, the directional density.
-    fn pdf_light_origin(&self, scene: &Scene) -> f32 {
-        let Some(light) = self.light() else {
-            return 0.0;
-        };
-        let pmf = scene.light_pmf(light);
-        if self.infinite {
-            return pmf * lightlab_core::INV_4PI;
-        }
-        let (pdf_pos, _) =
-            scene.lights[light as usize].pdf_le(scene.shapes(), scene.radius, self.ng, self.ng);
-        pmf * pdf_pos
-    }
-}
-
-/// The densities a delta vertex stores for its two directions: the sampled `s.wi` (forward) and
-/// the arrival direction `wo` (reverse, what the other subpath would sample), as the lobe's
-/// selection probability P times η²·|cos θ| — η the refractive index of the direction's side
-/// relative to the arrival side (`s.eta` for a refraction, 1 for a reflection), θ its angle to
-/// the shading normal `ns`.
-///
-/// Why. A delta BSDF's direction density is P times a Dirac delta, and MIS compares strategies
-/// that generate the vertex after it from either side, so the two deltas must be written in one
-/// measure for their ratio to be defined. Refraction preserves the throughput measure
-/// η² |cos θ| dω (étendue; Veach 1997 §5.2.2, Nicodemus 1963): a Dirac delta in that measure is the
-/// same on both sides of the interface and cancels from every ratio, leaving P·η²|cos θ| per
-/// direction. Their ratio is the solid-angle compression (η_i/η_t)² cos θ_i / cos θ_t that one
-/// refraction brings into the path density; it cancels for a symmetric pair of interfaces
-/// (entering and leaving a sphere) but not at one flat interface. Only each vertex's ratio enters
-/// the weights, so the common scale (the arrival side's η) does not matter; the Fresnel selection
-/// probability is the same from either side, so P serves both directions.
-#[inline]
-fn delta_densities(s: &lightlab_materials::BsdfSample, wo: Vec3, ns: Vec3) -> (f32, f32) {
-    let eta2 = if s.transmission { s.eta * s.eta } else { 1.0 };
-    (s.pdf * eta2 * s.wi.dot(ns).abs(), s.pdf * wo.dot(ns).abs())
-}
-
-fn direction(from: &Vertex, to: &Vertex) -> Vec3 {
-    if to.infinite {
-        -to.ng
-    } else {
-        (to.p - from.p).normalize()
-    }
-}
-
 pub struct Bdpt {
     config: BdptConfig,
     router: Router,
@@ -408,237 +189,62 @@ impl Bdpt {
             .map(|i| 2 * i)
     }
 
-    /// Extends `path` by a random walk from `ray` (pbrt-v4 `RandomWalk`), at most `max_vertices`
-    /// new vertices. `pdf_w` is the solid-angle density of `ray`'s direction.
-    #[allow(clippy::too_many_arguments)]
-    fn random_walk<S: Sampler>(
-        &self,
-        scene: &Scene,
-        mut ray: Ray,
-        mut beta: Rgb,
-        pdf_w: f32,
-        max_vertices: u32,
-        mode: TransportMode,
-        sampler: &mut S,
-        path: &mut Vec<Vertex>,
-        counters: &mut Counters,
-    ) {
-        let mut pdf_fwd_w = pdf_w;
-        let mut added = 0u32;
-        // Russian roulette scores the throughput relative to the walk's start — light subpaths
-        // start with the emitted flux, in units of power, which no absolute threshold can judge —
-        // and, on camera paths, with the η² of refractions divided out (pbrt-v4 §13.4.4).
-        let beta_start = beta.max_component();
-        let mut eta_scale = 1.0f32;
-        while added < max_vertices {
-            counters.rays += 1;
-            let Some(hit) = scene.intersect(&ray) else {
-                // Camera paths that escape end on the environment, if there is one.
-                if mode == TransportMode::Radiance
-                    && let Some(env) = scene.environment_light()
-                {
-                    let mut v = Vertex::new(Kind::Light { light: env }, ray.o + ray.d, beta);
-                    v.class = path.last().expect("a walk starts from a vertex").class;
-                    v.infinite = true;
-                    v.ng = ray.d.normalize();
-                    v.pdf_fwd = pdf_fwd_w;
-                    path.push(v);
-                }
-                break;
-            };
-            let bsdf = scene.materials[hit.material as usize];
-            let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
-            let mut v = Vertex::new(Kind::Surface, hit.p, beta);
-            v.p_error = hit.p_error;
-            v.ng = hit.ng;
-            v.ns = sb.frame.n;
-            v.sb = Some(sb);
-            v.emitter = hit.light;
-            let prev = *path.last().expect("a walk starts from a vertex");
-            v.class = prev.class.push(bsdf.lobe_class());
-            v.pdf_fwd = prev.convert_density(pdf_fwd_w, &v);
-            path.push(v);
-            added += 1;
-            let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
-            if added >= max_vertices {
-                break;
-            }
-            let wo = -ray.d.normalize();
-            let Some(s) = sb.sample(wo, u_lobe, u_dir, mode) else {
-                break;
-            };
-            if s.weight.is_black() {
-                break;
-            }
-            beta *= s.weight;
-            let mut pdf_rev_w = sb.pdf(s.wi, wo);
-            pdf_fwd_w = s.pdf;
-            let n = path.len();
-            if s.delta {
-                path[n - 1].delta = true;
-                (pdf_fwd_w, pdf_rev_w) = delta_densities(&s, wo, sb.frame.n);
-            }
-            let this = path[n - 1];
-            path[n - 2].pdf_rev = this.convert_density(pdf_rev_w, &path[n - 2]);
-            if s.transmission && mode == TransportMode::Radiance {
-                eta_scale *= s.eta * s.eta;
-            }
-            let score = beta.max_component() / beta_start * eta_scale;
-            if !survives(self.config.russian_roulette, added, score, u_rr, &mut beta) {
-                break;
-            }
-            ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
+    /// The walk settings of a subpath of at most `max_depth` scattering vertices.
+    fn walk(&self, mode: TransportMode, max_depth: u32) -> Walk {
+        Walk {
+            mode,
+            max_depth,
+            russian_roulette: self.config.russian_roulette,
+            directions: Directions::Bsdf,
         }
     }
 
-    /// The camera subpath through raster position `film`.
+    /// The camera subpath through raster position `film`: the camera vertex and up to
+    /// `max_depth` surface vertices (and a vertex at infinity if it escapes to an environment).
     fn camera_subpath<S: Sampler>(
         &self,
         scene: &Scene,
         film: Vec2,
         sampler: &mut S,
-        max_vertices: u32,
-        path: &mut Vec<Vertex>,
+        max_depth: u32,
+        path: &mut Vec<PathVertex>,
         counters: &mut Counters,
     ) {
-        let ray = scene.camera.generate_ray(film, sampler.next_2d());
-        path.push(Vertex::new(Kind::Camera, ray.o, Rgb::WHITE));
-        let pdf_dir = scene.camera.pdf_we_dir(ray.o, ray.d);
-        self.random_walk(
+        let walk = self.walk(TransportMode::Radiance, max_depth);
+        let mut subpath = Subpath {
             scene,
-            ray,
-            Rgb::WHITE,
-            pdf_dir,
-            max_vertices - 1,
-            TransportMode::Radiance,
-            sampler,
+            camera: true,
             path,
-            counters,
-        );
+        };
+        from_camera(scene, &walk, film, sampler, &mut subpath, counters);
     }
 
-    /// The light subpath (pbrt-v4 `GenerateLightSubpath`).
+    /// The light subpath (pbrt-v4 `GenerateLightSubpath`): its origin on a light and up to
+    /// `max_depth` surface vertices.
     fn light_subpath<S: Sampler>(
         &self,
         scene: &Scene,
         sampler: &mut S,
-        max_vertices: u32,
-        path: &mut Vec<Vertex>,
+        max_depth: u32,
+        path: &mut Vec<PathVertex>,
         counters: &mut Counters,
     ) {
-        let (u_light, u_pos, u_dir) = (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
-        if max_vertices == 0 {
-            return;
-        }
-        let Some((light, pmf)) = scene.sample_light(u_light) else {
-            return;
-        };
-        let l = &scene.lights[light as usize];
-        let Some(em) = l.sample_le(scene.shapes(), scene.center, scene.radius, u_pos, u_dir) else {
-            return;
-        };
-        let infinite = matches!(l, Light::Environment { .. });
-        let mut v = Vertex::new(Kind::Light { light }, em.p, em.le / (pmf * em.pdf_pos));
-        v.p_error = em.p_error;
-        if infinite {
-            v.infinite = true;
-            v.ng = em.dir;
-            // The origin's density is directional for an infinite light (pbrt-v4 §16.3.2).
-            v.pdf_fwd = pmf * lightlab_core::INV_4PI;
-        } else {
-            v.pdf_fwd = pmf * em.pdf_pos;
-            if !em.delta_pos {
-                v.ng = em.n;
-                v.ns = em.n;
-            }
-        }
-        path.push(v);
-        let cos = if em.delta_pos || infinite {
-            1.0
-        } else {
-            em.n.dot(em.dir).abs()
-        };
-        let beta = em.le * (cos / (pmf * em.pdf_pos * em.pdf_dir));
-        let ray = if em.delta_pos || infinite {
-            Ray::new(em.p, em.dir)
-        } else {
-            spawn_ray(em.p, em.p_error, em.n, em.dir)
-        };
-        self.random_walk(
+        let walk = self.walk(TransportMode::Importance, max_depth);
+        let mut subpath = Subpath {
             scene,
-            ray,
-            beta,
-            em.pdf_dir,
-            max_vertices - 1,
-            TransportMode::Importance,
-            sampler,
+            camera: false,
             path,
-            counters,
-        );
-        if infinite && path.len() > 1 {
-            // A ray from infinity starts on the disk: its first hit has the disk's area density.
-            let first = &mut path[1];
-            first.pdf_fwd = em.pdf_pos
-                * if first.on_surface() {
-                    first.ng.dot(em.dir).abs()
-                } else {
-                    1.0
-                };
-        }
-    }
-
-    fn visible(scene: &Scene, a: &Vertex, b: &Vertex) -> bool {
-        let ray = if b.infinite {
-            let mut r = spawn_ray(a.p, a.p_error, a.ng, -b.ng);
-            r.t_max = f32::INFINITY;
-            r
-        } else if a.on_surface() && b.on_surface() {
-            spawn_ray_to(a.p, a.p_error, a.ng, b.p, b.p_error, b.ng)
-        } else if a.on_surface() {
-            spawn_ray_to_point(a.p, a.p_error, a.ng, b.p)
-        } else if b.on_surface() {
-            spawn_ray_to_point(b.p, b.p_error, b.ng, a.p)
-        } else {
-            Ray::segment(a.p, b.p - a.p, 1.0 - 1e-4)
         };
-        !scene.occluded(&ray)
-    }
-
-    /// G(a, b) = |cos θ_a| |cos θ_b| / d² with shading normals where there are any.
-    fn g(a: &Vertex, b: &Vertex) -> f32 {
-        if b.infinite {
-            return if a.ns != Vec3::ZERO {
-                a.ns.dot(b.ng).abs()
-            } else {
-                1.0
-            };
-        }
-        let d = b.p - a.p;
-        let d2 = d.length_squared();
-        if !(d2 > 0.0) {
-            return 0.0;
-        }
-        let w = d / d2.sqrt();
-        let ca = if a.ns != Vec3::ZERO {
-            a.ns.dot(w).abs()
-        } else {
-            1.0
-        };
-        let cb = if b.ns != Vec3::ZERO {
-            b.ns.dot(w).abs()
-        } else {
-            1.0
-        };
-        ca * cb / d2
+        from_light(scene, &walk, sampler, &mut subpath, counters);
     }
 
     /// The MIS weight of strategy (s, t) (pbrt-v4 `MISWeight`, balance heuristic). `sampled` replaces
     /// the endpoint that strategy sampled anew (the light point for s = 1, the lens point for t = 1).
     fn mis_weight(
         scene: &Scene,
-        light: &[Vertex],
-        camera: &[Vertex],
-        sampled: Option<Vertex>,
+        light: &[PathVertex],
+        camera: &[PathVertex],
+        sampled: Option<PathVertex>,
         s: usize,
         t: usize,
         heuristic: Mis,
@@ -646,8 +252,8 @@ impl Bdpt {
         if matches!(heuristic, Mis::Only { .. }) {
             return 1.0;
         }
-        let mut lv: Vec<Vertex> = light[..s].to_vec();
-        let mut cv: Vec<Vertex> = camera[..t].to_vec();
+        let mut lv: Vec<PathVertex> = light[..s].to_vec();
+        let mut cv: Vec<PathVertex> = camera[..t].to_vec();
         // t = 1 samples the lens point (for s = t = 1 too, whose light vertex is the subpath's
         // origin); s = 1 with t ≥ 2 samples a point on a light.
         if t == 1 {
@@ -729,8 +335,8 @@ impl Bdpt {
     fn connect(
         &self,
         scene: &Scene,
-        light: &[Vertex],
-        camera: &[Vertex],
+        light: &[PathVertex],
+        camera: &[PathVertex],
         s: usize,
         t: usize,
         u_light: f32,
@@ -753,33 +359,21 @@ impl Bdpt {
             if !qs.connectible(scene) || qs.infinite {
                 return None;
             }
-            let cs = scene.camera.sample_wi(qs.p, u_lens)?;
-            if !(cs.pdf_w > 0.0) {
+            // s = t = 1: the point on the light seen directly through the lens (light tracing's
+            // emission connection); a point or spot light has no area to be seen.
+            if s == 1 && (!qs.on_surface() || !(qs.pdf_fwd > 0.0)) {
                 return None;
             }
-            let v = Vertex::new(Kind::Camera, cs.p_lens, Rgb::splat(cs.we / cs.pdf_w));
-            raster = Some(cs.raster);
-            let value = if s == 1 {
-                // s = t = 1: the point on the light seen directly through the lens (light
-                // tracing's emission connection); a point or spot light has no area to be seen.
-                if !qs.on_surface() || !(qs.pdf_fwd > 0.0) {
-                    return None;
+            let c = connect_to_lens(scene, qs, u_lens, counters, |v| {
+                if s == 1 {
+                    qs.le(scene, v) / qs.pdf_fwd
+                } else {
+                    qs.beta * qs.f(&light[s - 2], v, TransportMode::Importance)
                 }
-                qs.le(scene, &v) / qs.pdf_fwd
-            } else {
-                qs.beta * qs.f(&light[s - 2], &v, TransportMode::Importance)
-            };
-            let cos = qs.ns.dot(cs.wi).abs();
-            let l = value * v.beta * cos;
-            sampled = Some(v);
-            if l.is_black() {
-                return None;
-            }
-            counters.rays += 1;
-            if !Self::visible(scene, qs, &v) {
-                return None;
-            }
-            l
+            })?;
+            raster = Some(c.raster);
+            sampled = Some(c.camera);
+            c.contribution
         } else if s == 1 {
             let pt = &camera[t - 1];
             if !pt.connectible(scene) {
@@ -791,7 +385,7 @@ impl Bdpt {
             if !(ls.pdf_w > 0.0) || ls.li.is_black() {
                 return None;
             }
-            let mut v = Vertex::new(
+            let mut v = PathVertex::new(
                 Kind::Light { light: light_index },
                 ls.p,
                 ls.li / (ls.pdf_w * pmf),
@@ -812,7 +406,7 @@ impl Bdpt {
                 return None;
             }
             counters.rays += 1;
-            if !Self::visible(scene, pt, &v) {
+            if !unoccluded(scene, pt, &v) {
                 return None;
             }
             l
@@ -827,18 +421,70 @@ impl Bdpt {
             if l.is_black() {
                 return None;
             }
-            let l = l * Self::g(qs, pt);
+            let l = l * geometry_term(qs, pt);
             if l.is_black() {
                 return None;
             }
             counters.rays += 1;
-            if !Self::visible(scene, qs, pt) {
+            if !unoccluded(scene, qs, pt) {
                 return None;
             }
             l
         };
         let w = Self::mis_weight(scene, light, camera, sampled, s, t, self.config.mis);
         Some((l, w, raster))
+    }
+}
+
+/// A subpath stored vertex by vertex, with the reverse density of each vertex set once the walk
+/// has scattered from the next one.
+struct Subpath<'a> {
+    scene: &'a Scene,
+    /// The camera's subpath (radiance), not a light's.
+    camera: bool,
+    path: &'a mut Vec<PathVertex>,
+}
+
+impl Visitor for Subpath<'_> {
+    #[inline]
+    fn origin<S: Sampler>(&mut self, v: &PathVertex, _: &mut S, _: &mut Counters) {
+        self.path.push(*v);
+    }
+
+    #[inline]
+    fn vertex<S: Sampler>(
+        &mut self,
+        v: &PathVertex,
+        _: &Arrival,
+        _: &mut S,
+        _: &mut Counters,
+    ) -> bool {
+        self.path.push(*v);
+        true
+    }
+
+    #[inline]
+    fn scattered(&mut self, v: &PathVertex, s: &BsdfSample) {
+        let (_, pdf_rev_w) = v.step_densities(s);
+        let n = self.path.len();
+        self.path[n - 2].pdf_rev = v.convert_density(pdf_rev_w, &self.path[n - 2]);
+    }
+
+    /// A camera subpath that escapes ends on the environment, if there is one.
+    #[inline]
+    fn escaped(&mut self, ray: &Ray, beta: Rgb, arrival: &Arrival, _: &mut Counters) {
+        if !self.camera {
+            return;
+        }
+        if let Some(env) = self.scene.environment_light() {
+            let mut v = PathVertex::new(Kind::Light { light: env }, ray.o + ray.d, beta);
+            v.class = arrival.class;
+            v.depth = arrival.class.len();
+            v.infinite = true;
+            v.ng = ray.d.normalize();
+            v.pdf_fwd = arrival.pdf_w;
+            self.path.push(v);
+        }
     }
 }
 
@@ -877,8 +523,8 @@ impl Outlier {
         sample: u64,
         c: &Contribution,
         pixel_mean: [f64; 3],
-        light: &[Vertex],
-        camera: &[Vertex],
+        light: &[PathVertex],
+        camera: &[PathVertex],
     ) -> Outlier {
         let path = light.iter().chain(camera.iter().rev());
         let v = c.unweighted * c.weight;
@@ -914,7 +560,7 @@ struct SplatSource {
 
 /// The class of the path strategy (s, t) joins, light first (for s = 0 the last camera vertex is
 /// the emitter, not a scattering vertex).
-fn joined_class(light: &[Vertex], camera: &[Vertex], s: usize, t: usize) -> PathClass {
+fn joined_class(light: &[PathVertex], camera: &[PathVertex], s: usize, t: usize) -> PathClass {
     match s {
         0 if t >= 2 => camera[t - 2].class.reversed(),
         0 => PathClass::EMPTY,
@@ -949,9 +595,9 @@ impl Bdpt {
         index: u64,
         sampler: &mut S,
         light_sampler: &mut Independent,
-        (camera, light): (&mut Vec<Vertex>, &mut Vec<Vertex>),
+        (camera, light): (&mut Vec<PathVertex>, &mut Vec<PathVertex>),
         counters: &mut Counters,
-        mut visit: impl FnMut(&Contribution, &[Vertex], &[Vertex]),
+        mut visit: impl FnMut(&Contribution, &[PathVertex], &[PathVertex]),
     ) {
         let cfg = &self.config;
         let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX - 2);
@@ -961,21 +607,18 @@ impl Bdpt {
         let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
         camera.clear();
         light.clear();
+        // A full path of at most max_bounces scattering vertices: the camera side may reach an
+        // emitter after max_bounces of them (s = 0), the light side scatter max_bounces times
+        // before its last vertex is seen through the lens (t = 1).
         self.camera_subpath(
             scene,
             film,
             sampler,
-            max_bounces.saturating_add(2),
+            max_bounces.saturating_add(1),
             camera,
             counters,
         );
-        self.light_subpath(
-            scene,
-            light_sampler,
-            max_bounces.saturating_add(1),
-            light,
-            counters,
-        );
+        self.light_subpath(scene, light_sampler, max_bounces, light, counters);
         for t in 1..=camera.len() {
             let (u_light, u_point, u_lens) = (
                 light_sampler.next_1d(),
@@ -1156,8 +799,8 @@ struct RenderWith<'a, 'b> {
 /// outliers and splat provenance it logged.
 #[derive(Default)]
 struct WorkItem {
-    camera: Vec<Vertex>,
-    light: Vec<Vertex>,
+    camera: Vec<PathVertex>,
+    light: Vec<PathVertex>,
     outliers: Vec<Outlier>,
     /// Where each splat of the full image came from (only with `outliers`).
     splat_sources: Vec<SplatSource>,
@@ -1198,7 +841,7 @@ impl SamplerVisitor for RenderWith<'_, '_> {
                 let mut sampler = prototype.clone();
                 let mut light_sampler = Independent::new();
                 // Non-finite counts of this sample (the sample holds `counters`).
-                let mut non_finite = [0u64; 2];
+                let mut non_finite = Counters::default();
                 let (running_mean, running_count) = sink.running_mean();
                 let scale = running_mean[0].max(running_mean[1]).max(running_mean[2]);
                 let WorkItem {
@@ -1220,11 +863,11 @@ impl SamplerVisitor for RenderWith<'_, '_> {
                         let value = c.unweighted * c.weight;
                         let finite = value.is_finite();
                         if !finite {
-                            non_finite[if c.raster.is_some() {
-                                SPLAT
+                            non_finite.count_non_finite(if c.raster.is_some() {
+                                Technique::CameraConnection
                             } else {
-                                CONNECTION
-                            }] += 1;
+                                Technique::Connection
+                            });
                         }
                         // Camera-side contributions are compared with their pixel's mean over
                         // the passes before this one; splats (t = 1), which land in other
@@ -1283,9 +926,7 @@ impl SamplerVisitor for RenderWith<'_, '_> {
                         }
                     },
                 );
-                for (k, n) in non_finite.iter().enumerate() {
-                    counters.non_finite[k] += *n;
-                }
+                counters.merge(&non_finite);
             },
         );
         let mut films = out.films;
@@ -1299,7 +940,7 @@ impl SamplerVisitor for RenderWith<'_, '_> {
             schedule.elapsed(),
             pixels * out.spp as u64,
             &out.counters,
-            &["connection", "splat"],
+            &[Technique::Connection, Technique::CameraConnection],
             if spec.independent {
                 PixelVariance::Independent
             } else {
@@ -1343,6 +984,7 @@ impl SamplerVisitor for RenderWith<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lightlab_geometry::NO_LIGHT;
 
     fn scene(name: &str) -> Scene {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -1354,11 +996,11 @@ mod tests {
     /// The vertices of a full path x₀ (on a light) … x_{n−1} (the camera) split as s light and
     /// t = n − s camera vertices, with every density recomputed from the geometry, as both subpath
     /// generators would have stored them.
-    fn split(scene: &Scene, z: &[Vertex], s: usize) -> (Vec<Vertex>, Vec<Vertex>) {
+    fn split(scene: &Scene, z: &[PathVertex], s: usize) -> (Vec<PathVertex>, Vec<PathVertex>) {
         let n = z.len();
         let t = n - s;
-        let mut camera: Vec<Vertex> = z[..t].to_vec();
-        let mut light: Vec<Vertex> = z[t..].iter().rev().copied().collect();
+        let mut camera: Vec<PathVertex> = z[..t].to_vec();
+        let mut light: Vec<PathVertex> = z[t..].iter().rev().copied().collect();
         if let Some(y0) = light.first_mut() {
             y0.kind = Kind::Light { light: y0.emitter };
             y0.sb = None;
@@ -1488,7 +1130,7 @@ mod tests {
     /// through x_{n−1}'s raster position, at every diffuse vertex the inverse of the cosine warp
     /// toward the next vertex, at every delta vertex the lobe the light path took. `None` unless
     /// the walk retraces every vertex.
-    fn camera_through(bdpt: &Bdpt, scene: &Scene, light: &[Vertex]) -> Option<Vec<Vertex>> {
+    fn camera_through(bdpt: &Bdpt, scene: &Scene, light: &[PathVertex]) -> Option<Vec<PathVertex>> {
         use lightlab_samplers::warp::cosine_hemisphere_to_square;
         let n = light.len();
         let raster = scene
@@ -1534,7 +1176,12 @@ mod tests {
 
     /// Σ over the strategies that can make the path `light` + camera of their MIS weights, from
     /// the densities the two production walks stored.
-    fn weight_sum(scene: &Scene, light: &[Vertex], camera: &[Vertex], heuristic: Mis) -> f64 {
+    fn weight_sum(
+        scene: &Scene,
+        light: &[PathVertex],
+        camera: &[PathVertex],
+        heuristic: Mis,
+    ) -> f64 {
         let m = light.len();
         (0..=m)
             .filter(|&s| s == 0 || !(light[s - 1].delta || camera[m - s].delta))
@@ -1556,9 +1203,9 @@ mod tests {
         scene: &Scene,
         bdpt: &Bdpt,
         vertices: u32,
-        keep: impl Fn(&[Vertex]) -> bool,
+        keep: impl Fn(&[PathVertex]) -> bool,
         want: usize,
-    ) -> Vec<(Vec<Vertex>, Vec<Vertex>)> {
+    ) -> Vec<(Vec<PathVertex>, Vec<PathVertex>)> {
         let mut out = Vec::new();
         for seed in 0..400_000u64 {
             let mut sampler = Independent::new();
@@ -1579,10 +1226,10 @@ mod tests {
                 .camera
                 .sample_wi(last.p, Vec2::splat(0.5))
                 .is_some_and(|cs| {
-                    Bdpt::visible(
+                    unoccluded(
                         scene,
                         last,
-                        &Vertex::new(Kind::Camera, cs.p_lens, Rgb::WHITE),
+                        &PathVertex::new(Kind::Camera, cs.p_lens, Rgb::WHITE),
                     )
                 });
             if !visible {
@@ -1624,7 +1271,7 @@ mod tests {
     /// disagree on a delta vertex's ratio of densities.)
     #[test]
     fn production_weights_sum_to_one_through_specular_vertices() {
-        let with_delta = |p: &[Vertex]| p.iter().any(|v| v.delta);
+        let with_delta = |p: &[PathVertex]| p.iter().any(|v| v.delta);
         let mirror_floor = {
             let text = std::fs::read_to_string(
                 std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -1637,12 +1284,12 @@ mod tests {
             );
             lightlab_scene::parse_scene(&text, std::path::Path::new("mirror-sphere.ron")).unwrap()
         };
-        let directly = |p: &[Vertex]| p.len() == 1;
+        let directly = |p: &[PathVertex]| p.len() == 1;
         for (name, scene, keep, vertices) in [
             (
                 "mirror sphere",
                 mirror_floor,
-                &with_delta as &dyn Fn(&[Vertex]) -> bool,
+                &with_delta as &dyn Fn(&[PathVertex]) -> bool,
                 6,
             ),
             (
@@ -1693,7 +1340,7 @@ mod tests {
         let scene = flat_interface("Dielectric(ior: 1.5)");
         let eta = 1.5f64;
         let bdpt = bdpt(3);
-        let shape = |p: &[Vertex]| {
+        let shape = |p: &[PathVertex]| {
             p.len() == 4 && !p[1].delta && p[2].delta && p[1].p.y > 0.9 && p[3].p.y < -0.9
         };
         let paths = production_paths(&scene, &bdpt, 4, shape, 10);

@@ -16,8 +16,8 @@ pub mod path;
 pub mod paths;
 pub mod photon;
 mod render;
-mod roulette;
 mod sink;
+mod walk;
 
 pub use bdpt::{BdptConfig, Mis};
 pub use config::{ConfigError, IntegratorConfig, Validate};
@@ -29,7 +29,7 @@ pub use photon::config::{
     Gather, Indirect, Length, PhotonMapConfig, ProgressiveConfig, RadiusUpdate,
 };
 pub use photon::map::Kernel;
-pub use render::{Counters, PixelLimit, PixelVariance, RenderOutput, RenderStats};
+pub use render::{Counters, PixelLimit, PixelVariance, RenderOutput, RenderStats, Technique};
 pub use sink::Sink;
 
 use lightlab_core::{NoProgress, Progress};

@@ -17,24 +17,25 @@
 //! mirror or glass seen directly), and emitters at infinity seen directly. Those terms are missing
 //! from its image by construction; experiments show it as bias against a path-traced reference.
 //!
-//! Sample dimensions per light path: light choice (1), position (2), direction (2), then per surface
-//! vertex: lens (2), BSDF lobe (1), BSDF direction (2), Russian roulette (1). Paths are keyed by
+//! Sample dimensions per light path: light choice (1), position (2), direction (2), the emission
+//! point's lens sample (2), then per surface vertex: lens (2) and the walk's BSDF lobe (1), BSDF
+//! direction (2), Russian roulette (1). Paths are keyed by
 //! (seed, path index), and the driver adds splats in a fixed order, so the image is bit-identical
 //! on any number of threads.
 
 use crate::config::{ConfigError, Validate, check_common, default_rr};
 use crate::passes::{PassSpec, Schedule, run_passes};
-use crate::paths::{Layers, PathClass, Router};
-use crate::render::{Counters, PixelVariance, named};
-use crate::roulette::survives;
+use crate::paths::{Layers, Router};
+use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::sink::Sink;
+use crate::walk::{
+    Arrival, Directions, PathVertex, Visitor, Walk, connect_to_lens, direction, from_light,
+};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, Rgb, TransportMode};
-use lightlab_geometry::{spawn_ray, spawn_ray_to_point};
-use lightlab_materials::SurfaceBsdf;
 use lightlab_samplers::{Independent, Sampler};
-use lightlab_scene::{Light, Scene};
+use lightlab_scene::Scene;
 use serde::{Deserialize, Serialize};
 
 /// Settings of the light tracer: `Light(max_bounces: 8)`; every field optional.
@@ -80,9 +81,6 @@ impl Validate for LightConfig {
     }
 }
 
-/// Technique number for the non-finite counter.
-const CONNECTION: usize = 0;
-
 pub struct LightTracer {
     config: LightConfig,
     router: Router,
@@ -97,48 +95,6 @@ impl LightTracer {
         Ok(LightTracer { config, router })
     }
 
-    /// Connects a vertex to the camera; `value_toward` gives what leaves the vertex toward the lens
-    /// (f·β for surface vertices, Le for the emission point) given the direction to the lens.
-    fn connect(
-        &self,
-        scene: &Scene,
-        p: glam::Vec3,
-        p_error: glam::Vec3,
-        n: glam::Vec3,
-        u_lens: Vec2,
-        class: &PathClass,
-        sink: &mut Sink,
-        counters: &mut Counters,
-        value_toward: impl FnOnce(glam::Vec3) -> (Rgb, f32),
-    ) {
-        let Some(layer) = self.router.route(class) else {
-            return;
-        };
-        let Some(cs) = scene.camera.sample_wi(p, u_lens) else {
-            return;
-        };
-        let (value, cos) = value_toward(cs.wi);
-        if value.is_black() || !(cs.pdf_w > 0.0) {
-            return;
-        }
-        counters.rays += 1;
-        let ray = if p_error == glam::Vec3::ZERO && n == glam::Vec3::ZERO {
-            lightlab_core::Ray::segment(p, cs.p_lens - p, 1.0 - 1e-4)
-        } else {
-            spawn_ray_to_point(p, p_error, n, cs.p_lens)
-        };
-        if scene.occluded(&ray) {
-            return;
-        }
-        let c = value * (cos * cs.we / cs.pdf_w);
-        if !c.is_finite() {
-            counters.non_finite[CONNECTION] += 1;
-            return;
-        }
-        let pixel = sink.pixel_at(cs.raster);
-        sink.splat_routed(pixel, layer, c);
-    }
-
     /// Traces light path `index` and records its camera connections.
     fn trace(
         &self,
@@ -149,115 +105,112 @@ impl LightTracer {
         counters: &mut Counters,
     ) {
         let cfg = &self.config;
-        let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX);
         let mut sampler = Independent::new();
         sampler.start_pixel_sample(seed, index, 0);
-        let (u_light, u_pos, u_dir) = (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
-        let Some((light_index, pmf)) = scene.sample_light(u_light) else {
-            return;
+        let walk = Walk {
+            mode: TransportMode::Importance,
+            max_depth: cfg.max_bounces.unwrap_or(u32::MAX),
+            russian_roulette: cfg.russian_roulette,
+            directions: Directions::Bsdf,
         };
-        let light = &scene.lights[light_index as usize];
-        let Some(em) = light.sample_le(scene.shapes(), scene.center, scene.radius, u_pos, u_dir)
-        else {
-            return;
+        let mut visitor = LightPath {
+            scene,
+            router: &self.router,
+            min_bounces: cfg.min_bounces,
+            sink,
         };
+        from_light(scene, &walk, &mut sampler, &mut visitor, counters);
+    }
+}
 
-        // The emission point seen by the camera: L E (0 scattering vertices).
-        if cfg.min_bounces == 0 {
-            let u_lens = sampler.next_2d();
-            match *light {
-                Light::Area {
-                    radiance,
-                    two_sided,
-                    ..
-                } => self.connect(
-                    scene,
-                    em.p,
-                    em.p_error,
-                    em.n,
-                    u_lens,
-                    &PathClass::EMPTY,
-                    sink,
-                    counters,
-                    |wi| {
-                        (
-                            Light::area_le(radiance, two_sided, em.n, wi) / (pmf * em.pdf_pos),
-                            em.n.dot(wi).abs(),
-                        )
-                    },
-                ),
-                // Point and spot lights have no area, so no camera sees them (as in path tracing);
-                // an emitter at infinity has no point to connect.
-                Light::Point { .. } | Light::Spot { .. } | Light::Environment { .. } => {}
-            }
-        } else {
-            sampler.next_2d();
-        }
+/// Connects light-path vertex `v` to the lens and splats what arrives, routed by `v`'s class;
+/// `value` as [`connect_to_lens`] takes it.
+fn connect(
+    scene: &Scene,
+    router: &Router,
+    v: &PathVertex,
+    u_lens: Vec2,
+    sink: &mut Sink,
+    counters: &mut Counters,
+    value: impl FnOnce(&PathVertex) -> Rgb,
+) {
+    let Some(layer) = router.route(&v.class) else {
+        return;
+    };
+    let Some(c) = connect_to_lens(scene, v, u_lens, counters, value) else {
+        return;
+    };
+    if !c.contribution.is_finite() {
+        counters.count_non_finite(Technique::CameraConnection);
+        return;
+    }
+    let pixel = sink.pixel_at(c.raster);
+    sink.splat_routed(pixel, layer, c.contribution);
+}
 
-        let cos_emit = if em.delta_pos || matches!(light, Light::Environment { .. }) {
-            1.0
-        } else {
-            em.n.dot(em.dir).abs()
-        };
-        let mut beta = em.le * (cos_emit / (pmf * em.pdf_pos * em.pdf_dir));
-        let mut ray = if em.delta_pos || matches!(light, Light::Environment { .. }) {
-            lightlab_core::Ray::new(em.p, em.dir)
-        } else {
-            spawn_ray(em.p, em.p_error, em.n, em.dir)
-        };
-        // Russian roulette scores the throughput relative to the emitted flux: β is in units of
-        // power, which scale with the scene, so an absolute threshold would end every path of a
-        // small scene (and let a large one's run long).
-        let beta_start = beta.max_component();
-        let mut depth = 0u32;
-        // Scattering vertices so far, light first.
-        let mut class = PathClass::EMPTY;
-        loop {
-            counters.rays += 1;
-            let Some(hit) = scene.intersect(&ray) else {
-                break;
-            };
-            depth += 1;
-            if depth > max_bounces {
-                break;
-            }
-            let wo = -ray.d.normalize();
-            let bsdf = scene.materials[hit.material as usize];
-            let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
-            class = class.push(bsdf.lobe_class());
-            let u_lens = sampler.next_2d();
-            if !bsdf.is_delta() && depth >= cfg.min_bounces {
-                self.connect(
-                    scene,
-                    hit.p,
-                    hit.p_error,
-                    hit.ng,
-                    u_lens,
-                    &class,
-                    sink,
-                    counters,
-                    |wi| {
-                        (
-                            beta * sb.eval(wo, wi, TransportMode::Importance).f,
-                            wi.dot(sb.frame.n).abs(),
-                        )
-                    },
-                );
-            }
-            let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
-            let Some(s) = sb.sample(wo, u_lobe, u_dir, TransportMode::Importance) else {
-                break;
-            };
-            if s.weight.is_black() {
-                break;
-            }
-            beta *= s.weight;
-            let score = beta.max_component() / beta_start;
-            if !survives(cfg.russian_roulette, depth, score, u_rr, &mut beta) {
-                break;
-            }
-            ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
+/// The light tracer's estimator along one light walk: every non-specular vertex is connected to
+/// the lens.
+struct LightPath<'a, 'r, 's> {
+    scene: &'a Scene,
+    router: &'a Router,
+    min_bounces: u32,
+    sink: &'s mut Sink<'r>,
+}
+
+impl Visitor for LightPath<'_, '_, '_> {
+    /// The emission point seen by the camera: L E (0 scattering vertices). Point and spot lights
+    /// have no area, so no camera sees them (as in path tracing); an emitter at infinity has no
+    /// point to connect.
+    #[inline]
+    fn origin<S: Sampler>(
+        &mut self,
+        origin: &PathVertex,
+        sampler: &mut S,
+        counters: &mut Counters,
+    ) {
+        let u_lens = sampler.next_2d();
+        if self.min_bounces == 0 && origin.on_surface() {
+            let scene = self.scene;
+            connect(
+                scene,
+                self.router,
+                origin,
+                u_lens,
+                self.sink,
+                counters,
+                |camera| origin.le(scene, camera) / origin.pdf_fwd,
+            );
         }
+    }
+
+    #[inline]
+    fn vertex<S: Sampler>(
+        &mut self,
+        v: &PathVertex,
+        _: &Arrival,
+        sampler: &mut S,
+        counters: &mut Counters,
+    ) -> bool {
+        let u_lens = sampler.next_2d();
+        if !v.delta
+            && v.depth >= self.min_bounces
+            && let Some(sb) = &v.sb
+        {
+            connect(
+                self.scene,
+                self.router,
+                v,
+                u_lens,
+                self.sink,
+                counters,
+                |camera| {
+                    v.beta
+                        * sb.eval(v.wo, direction(v, camera), TransportMode::Importance)
+                            .f
+                },
+            );
+        }
+        true
     }
 }
 
@@ -303,7 +256,7 @@ impl Integrator for LightTracer {
             schedule.elapsed(),
             pixels * out.spp as u64,
             &out.counters,
-            &["camera_connection"],
+            &[Technique::CameraConnection],
             PixelVariance::Independent,
         );
         RenderOutput {

@@ -2,12 +2,14 @@
 //! §13.4): one light chosen by power, one point or direction on it, one shadow ray.
 
 use crate::render::Counters;
+use crate::walk::{Arrival, PathVertex};
 use glam::Vec2;
 use glam::Vec3;
 use lightlab_core::{INV_4PI, Rgb, TransportMode};
-use lightlab_geometry::{Hit, spawn_ray, spawn_ray_to, spawn_ray_to_point};
+use lightlab_geometry::{NO_LIGHT, spawn_ray, spawn_ray_to, spawn_ray_to_point};
 use lightlab_materials::SurfaceBsdf;
-use lightlab_scene::{Light, LightSample, Scene};
+use lightlab_samplers::mis::power_heuristic;
+use lightlab_scene::{LightSample, Scene};
 
 /// An unoccluded light sample at a surface point, before any MIS weight.
 pub(crate) struct DirectSample {
@@ -21,12 +23,12 @@ pub(crate) struct DirectSample {
     pub delta: bool,
 }
 
-/// Samples direct lighting at `hit` toward `wo` with one light sample (`u_light`, `u_point`).
+/// Samples direct lighting at surface vertex `v` toward `wo` with one light sample (`u_light`, `u_point`).
 /// With `shadows` false visibility is not tested (unshadowed direct lighting). `None` when the
 /// sample carries nothing or is occluded.
 pub(crate) fn sample_direct(
     scene: &Scene,
-    hit: &Hit,
+    v: &PathVertex,
     sb: &SurfaceBsdf,
     wo: Vec3,
     u_light: f32,
@@ -35,13 +37,13 @@ pub(crate) fn sample_direct(
     counters: &mut Counters,
 ) -> Option<DirectSample> {
     let (li_index, pmf) = scene.sample_light(u_light)?;
-    let ls = scene.lights[li_index as usize].sample_li(scene.shapes(), hit.p, u_point)?;
+    let ls = scene.lights[li_index as usize].sample_li(scene.shapes(), v.p, u_point)?;
     let e = sb.eval(wo, ls.wi, TransportMode::Radiance);
     if ls.li.is_black() || e.f.is_black() {
         return None;
     }
     counters.rays += shadows as u64;
-    if shadows && shadowed(scene, hit, &ls) {
+    if shadows && shadowed(scene, v, &ls) {
         return None;
     }
     let light_pdf = pmf * ls.pdf_w;
@@ -54,46 +56,101 @@ pub(crate) fn sample_direct(
     })
 }
 
-/// Radiance the surface at `hit` emits toward `wo` (black unless it is an area light).
-#[inline]
-pub(crate) fn emitted(scene: &Scene, hit: &Hit, wo: Vec3) -> Rgb {
-    match scene.lights.get(hit.light as usize) {
-        Some(&Light::Area {
-            radiance,
-            two_sided,
-            ..
-        }) => Light::area_le(radiance, two_sided, hit.ng, wo),
-        _ => Rgb::BLACK,
+/// How emission that a BSDF-sampled ray finds is weighted against next-event estimation at the
+/// vertex the ray left (Veach 1997, §9.2). After the camera or a specular vertex, where lights
+/// cannot be sampled, the weight is always 1.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Competition {
+    /// Lights are not sampled: BSDF sampling alone finds emission (weight 1).
+    None,
+    /// Next-event estimation alone counts light reached after a non-specular vertex (weight 0).
+    LightsOnly,
+    /// Both strategies count, combined by the power heuristic.
+    Power,
+}
+
+impl Competition {
+    /// The weight of a next-event sample `d` (1 for a delta light, which BSDF sampling cannot
+    /// find).
+    #[inline]
+    pub(crate) fn direct_weight(self, d: &DirectSample) -> f32 {
+        match self {
+            Competition::Power if !d.delta => power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf),
+            _ => 1.0,
+        }
+    }
+
+    #[inline]
+    fn weight(self, arrival: &Arrival, light_pdf: impl FnOnce() -> f32) -> f32 {
+        match self {
+            _ if arrival.delta => 1.0,
+            Competition::None => 1.0,
+            Competition::LightsOnly => 0.0,
+            Competition::Power => power_heuristic(1.0, arrival.pdf_w, 1.0, light_pdf()),
+        }
     }
 }
 
-/// Solid-angle density, light choice included, with which next-event estimation from `from`
-/// would have sampled the emitting point `hit` — the other strategy in the MIS weight of emission
-/// found by BSDF sampling.
+/// The weighted emission β·Lₑ·w a camera-side walk finds at surface vertex `v`, reached as
+/// `arrival` says (black where `v` does not emit).
 #[inline]
-pub(crate) fn light_pdf_of_hit(scene: &Scene, from: Vec3, hit: &Hit) -> f32 {
-    scene.light_pmf(hit.light)
-        * scene.shapes()[hit.shape as usize].pdf_solid_angle(from, hit.p, hit.ng)
+pub(crate) fn emission_found(
+    scene: &Scene,
+    v: &PathVertex,
+    arrival: &Arrival,
+    competition: Competition,
+) -> Rgb {
+    if v.emitter == NO_LIGHT {
+        return Rgb::BLACK;
+    }
+    let le = v.le_toward(scene, v.wo);
+    if le.is_black() {
+        return le;
+    }
+    v.beta * le * competition.weight(arrival, || light_pdf_of_hit(scene, arrival.from, v))
+}
+
+/// The same for a walk that escaped with throughput `beta` to the (constant) environment.
+#[inline]
+pub(crate) fn environment_found(
+    scene: &Scene,
+    beta: Rgb,
+    arrival: &Arrival,
+    competition: Competition,
+) -> Rgb {
+    let le = scene.environment_le();
+    if le.is_black() {
+        return le;
+    }
+    beta * le * competition.weight(arrival, || environment_light_pdf(scene))
+}
+
+/// Solid-angle density, light choice included, with which next-event estimation from `from`
+/// would have sampled the emitting surface vertex `v` — the other strategy in the MIS weight of
+/// emission found by BSDF sampling.
+#[inline]
+fn light_pdf_of_hit(scene: &Scene, from: Vec3, v: &PathVertex) -> f32 {
+    scene.light_pmf(v.emitter) * scene.shapes()[v.shape as usize].pdf_solid_angle(from, v.p, v.ng)
 }
 
 /// The same for a ray that escapes to the (constant) environment light.
 #[inline]
-pub(crate) fn environment_light_pdf(scene: &Scene) -> f32 {
+fn environment_light_pdf(scene: &Scene) -> f32 {
     scene
         .environment_light()
         .map_or(0.0, |i| scene.light_pmf(i) * INV_4PI)
 }
 
-/// Whether the segment from `hit` to the light sample is blocked.
-fn shadowed(scene: &Scene, hit: &Hit, ls: &LightSample) -> bool {
+/// Whether the segment from `v` to the light sample is blocked.
+fn shadowed(scene: &Scene, v: &PathVertex, ls: &LightSample) -> bool {
     let ray = if ls.infinite {
-        let mut r = spawn_ray(hit.p, hit.p_error, hit.ng, ls.wi);
+        let mut r = spawn_ray(v.p, v.p_error, v.ng, ls.wi);
         r.t_max = f32::INFINITY;
         r
     } else if ls.delta {
-        spawn_ray_to_point(hit.p, hit.p_error, hit.ng, ls.p)
+        spawn_ray_to_point(v.p, v.p_error, v.ng, ls.p)
     } else {
-        spawn_ray_to(hit.p, hit.p_error, hit.ng, ls.p, ls.p_error, ls.n)
+        spawn_ray_to(v.p, v.p_error, v.ng, ls.p, ls.p_error, ls.n)
     };
     scene.occluded(&ray)
 }

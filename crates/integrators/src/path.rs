@@ -7,23 +7,20 @@
 //! weighted by the power heuristic. `min_bounces`/`max_bounces` keep only terms with k in that range.
 //!
 //! Sample dimensions per pixel sample (the layout stratified samplers rely on): 0–1 pixel position,
-//! 2–3 lens, then per scattering vertex 7 values: light choice (1), point on the light (2), BSDF lobe
-//! (1), BSDF direction (2), Russian roulette (1) — consumed whether or not they are used.
+//! 2–3 lens, then per scattering vertex 7 values: light choice (1), point on the light (2), and the
+//! walk's BSDF lobe (1), BSDF direction (2), Russian roulette (1) — consumed whether or not they
+//! are used (see `walk`).
 
 use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
-use crate::nee::{emitted, environment_light_pdf, light_pdf_of_hit, sample_direct};
+use crate::nee::{Competition, emission_found, environment_found, sample_direct};
 use crate::passes::{PassSpec, Schedule, run_passes};
-use crate::paths::{Layers, PathClass, Router};
-use crate::render::{Counters, PixelVariance, named};
-use crate::roulette::survives;
+use crate::paths::{Layers, Router};
+use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::sink::Sink;
+use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, from_camera};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
-use glam::{Vec2, Vec3};
-use lightlab_core::{INV_2PI, INV_4PI, Progress, Rgb, TransportMode};
-use lightlab_geometry::{NO_LIGHT, spawn_ray};
-use lightlab_materials::{Bsdf, SurfaceBsdf};
-use lightlab_samplers::mis::power_heuristic;
-use lightlab_samplers::warp::{square_to_uniform_hemisphere, square_to_uniform_sphere};
+use glam::Vec2;
+use lightlab_core::{Progress, Ray, Rgb, TransportMode};
 use lightlab_samplers::{Sampler, SamplerConfig, SamplerVisitor};
 use lightlab_scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -109,10 +106,6 @@ pub enum Strategy {
     Uniform,
 }
 
-/// Technique numbers for the non-finite counters.
-const EMISSION: usize = 0;
-const NEXT_EVENT: usize = 1;
-
 pub struct PathTracer {
     config: PathConfig,
     router: Router,
@@ -132,188 +125,115 @@ impl PathTracer {
         matches!(self.config.strategy, Strategy::Mis | Strategy::LightOnly)
     }
 
-    /// Weight of emission found by a BSDF-sampled ray (or the camera ray) against light sampling of the
-    /// same path. `prev_delta`: the previous vertex was the camera or specular, where lights cannot be
-    /// sampled.
-    #[inline]
-    fn emission_weight(
-        &self,
-        prev_delta: bool,
-        bsdf_pdf: f32,
-        light_pdf: impl FnOnce() -> f32,
-    ) -> f32 {
-        if prev_delta {
-            return 1.0;
-        }
+    /// How emission found by BSDF sampling competes with next-event estimation.
+    fn competition(&self) -> Competition {
         match (self.config.strategy, self.config.shadows) {
-            (Strategy::BsdfOnly | Strategy::Uniform, _) => 1.0,
-            (Strategy::LightOnly, _) | (Strategy::Mis, false) => 0.0,
-            (Strategy::Mis, true) => power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf()),
+            (Strategy::BsdfOnly | Strategy::Uniform, _) => Competition::None,
+            (Strategy::LightOnly, _) | (Strategy::Mis, false) => Competition::LightsOnly,
+            (Strategy::Mis, true) => Competition::Power,
         }
     }
 
-    /// One camera path through raster position `film`: adds its radiance estimate to `l`, by path
-    /// class.
+    /// One camera path through raster position `film`: adds its radiance estimate to `sink`, by
+    /// path class.
     fn li<S: Sampler>(
         &self,
         scene: &Scene,
         film: Vec2,
         sampler: &mut S,
-        l: &mut Sink,
+        sink: &mut Sink,
         counters: &mut Counters,
     ) {
         let cfg = &self.config;
         let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX);
-        let u_lens = sampler.next_2d();
-        let mut ray = scene.camera.generate_ray(film, u_lens);
-        // Scattering vertices so far, camera first.
-        let mut class = PathClass::EMPTY;
-        let mut beta = Rgb::WHITE;
-        // Product of η² over refractions so far, which Russian roulette divides out (pbrt-v4 §13.4.4).
-        let mut eta_scale = 1.0f32;
-        let mut depth = 0u32; // scattering vertices so far
-        let mut prev_delta = true;
-        let mut prev_p = ray.o;
-        let mut prev_bsdf_pdf = 0.0f32;
-        loop {
-            counters.rays += 1;
-            let Some(hit) = scene.intersect(&ray) else {
-                let le = scene.environment_le();
-                if depth >= cfg.min_bounces && !le.is_black() {
-                    let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
-                        environment_light_pdf(scene)
-                    });
-                    add(l, &class, beta * le * w, EMISSION, counters);
-                }
-                break;
-            };
-            let wo = -ray.d.normalize();
-            if hit.light != NO_LIGHT && depth >= cfg.min_bounces {
-                let le = emitted(scene, &hit, wo);
-                if !le.is_black() {
-                    let w = self.emission_weight(prev_delta, prev_bsdf_pdf, || {
-                        light_pdf_of_hit(scene, prev_p, &hit)
-                    });
-                    add(l, &class, beta * le * w, EMISSION, counters);
-                }
-            }
-            if depth >= max_bounces {
-                break;
-            }
-            let bsdf = scene.materials[hit.material as usize];
-            let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
-            let delta = bsdf.is_delta();
-            class = class.push(bsdf.lobe_class());
-
-            // Next-event estimation: a path of depth + 1 scattering vertices ending on a light.
-            let (u_light, u_light_point) = (sampler.next_1d(), sampler.next_2d());
-            if self.samples_lights()
-                && !delta
-                && depth + 1 >= cfg.min_bounces
-                && let Some(d) = sample_direct(
-                    scene,
-                    &hit,
-                    &sb,
-                    wo,
-                    u_light,
-                    u_light_point,
-                    cfg.shadows,
-                    counters,
-                )
-            {
-                let w = if d.delta || cfg.strategy == Strategy::LightOnly || !cfg.shadows {
-                    1.0
-                } else {
-                    power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
-                };
-                add(l, &class, beta * d.value * w, NEXT_EVENT, counters);
-            }
-
-            // Continue the path.
-            let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
-            let step = if cfg.strategy == Strategy::Uniform && !delta {
-                uniform_direction(&sb, wo, u_dir)
+        let walk = Walk {
+            mode: TransportMode::Radiance,
+            // The vertex after the last bounce is visited for its emission.
+            max_depth: max_bounces.saturating_add(1),
+            russian_roulette: cfg.russian_roulette,
+            directions: if cfg.strategy == Strategy::Uniform {
+                Directions::Uniform
             } else {
-                sb.sample(wo, u_lobe, u_dir, TransportMode::Radiance)
-                    .map(|s| Step {
-                        wi: s.wi,
-                        weight: s.weight,
-                        pdf: s.pdf,
-                        delta: s.delta,
-                        eta: if s.transmission { s.eta } else { 1.0 },
-                    })
-            };
-            let Some(step) = step else { break };
-            if step.weight.is_black() {
-                break;
-            }
-            beta *= step.weight;
-            eta_scale *= step.eta * step.eta;
-            prev_delta = step.delta;
-            prev_bsdf_pdf = step.pdf;
-            prev_p = hit.p;
-            depth += 1;
-            let score = beta.max_component() * eta_scale;
-            if !survives(cfg.russian_roulette, depth, score, u_rr, &mut beta) {
-                break;
-            }
-            ray = spawn_ray(hit.p, hit.p_error, hit.ng, step.wi);
-        }
+                Directions::Bsdf
+            },
+        };
+        let mut visitor = CameraPath {
+            tracer: self,
+            scene,
+            max_bounces,
+            sink,
+        };
+        from_camera(scene, &walk, film, sampler, &mut visitor, counters);
     }
 }
 
-/// A sampled continuation of the path.
-struct Step {
-    wi: Vec3,
-    weight: Rgb,
-    pdf: f32,
-    delta: bool,
-    /// Relative IOR crossed (1 for reflection).
-    eta: f32,
+/// The path tracer's estimator along one camera walk.
+struct CameraPath<'a, 'r, 's> {
+    tracer: &'a PathTracer,
+    scene: &'a Scene,
+    max_bounces: u32,
+    sink: &'s mut Sink<'r>,
 }
 
-/// Blind sampling: a uniform direction on the hemisphere of `wo` (the whole sphere where the surface
-/// transmits), weighted by f·|cos|/p.
-fn uniform_direction(sb: &SurfaceBsdf, wo: Vec3, u: Vec2) -> Option<Step> {
-    let (local, pdf) = if matches!(sb.bsdf, Bsdf::RoughDielectric { .. }) {
-        (square_to_uniform_sphere(u), INV_4PI)
-    } else {
-        let mut d = square_to_uniform_hemisphere(u);
-        if sb.frame.n.dot(wo) < 0.0 {
-            d.z = -d.z;
-        }
-        (d, INV_2PI)
-    };
-    let wi = sb.frame.to_world(local);
-    let f = sb.eval(wo, wi, TransportMode::Radiance).f;
-    let transmits = wi.dot(sb.ng) * wo.dot(sb.ng) < 0.0;
-    let eta = match sb.bsdf {
-        Bsdf::RoughDielectric { eta, .. } if transmits => {
-            if wo.dot(sb.ng) > 0.0 {
-                eta
-            } else {
-                1.0 / eta
+impl Visitor for CameraPath<'_, '_, '_> {
+    #[inline]
+    fn vertex<S: Sampler>(
+        &mut self,
+        v: &PathVertex,
+        arrival: &Arrival,
+        sampler: &mut S,
+        counters: &mut Counters,
+    ) -> bool {
+        let (tracer, scene) = (self.tracer, self.scene);
+        let cfg = &tracer.config;
+        // Emission: a path of the vertices before this one.
+        if arrival.class.len() >= cfg.min_bounces {
+            let c = emission_found(scene, v, arrival, tracer.competition());
+            if !c.is_black() {
+                self.sink
+                    .add_eye_or_count(&arrival.class, c, Technique::Emission, counters);
             }
         }
-        _ => 1.0,
-    };
-    Some(Step {
-        wi,
-        weight: f * (local.z.abs() / pdf),
-        pdf,
-        delta: false,
-        eta,
-    })
-}
+        if v.depth > self.max_bounces {
+            return false;
+        }
+        // Next-event estimation: a path through this vertex ending on a light.
+        let (u_light, u_light_point) = (sampler.next_1d(), sampler.next_2d());
+        if tracer.samples_lights()
+            && !v.delta
+            && v.depth >= cfg.min_bounces
+            && let Some(sb) = &v.sb
+            && let Some(d) = sample_direct(
+                scene,
+                v,
+                sb,
+                v.wo,
+                u_light,
+                u_light_point,
+                cfg.shadows,
+                counters,
+            )
+        {
+            let w = tracer.competition().direct_weight(&d);
+            self.sink.add_eye_or_count(
+                &v.class,
+                v.beta * d.value * w,
+                Technique::NextEvent,
+                counters,
+            );
+        }
+        true
+    }
 
-/// Adds a contribution of a camera path with scattering vertices `eye` (camera first) unless it is
-/// NaN or infinite, which is counted instead (design.md).
-#[inline]
-fn add(l: &mut Sink, eye: &PathClass, c: Rgb, technique: usize, counters: &mut Counters) {
-    if c.is_finite() {
-        l.add_eye(eye, c);
-    } else {
-        counters.non_finite[technique] += 1;
+    #[inline]
+    fn escaped(&mut self, _ray: &Ray, beta: Rgb, arrival: &Arrival, counters: &mut Counters) {
+        if arrival.class.len() >= self.tracer.config.min_bounces {
+            let c = environment_found(self.scene, beta, arrival, self.tracer.competition());
+            if !c.is_black() {
+                self.sink
+                    .add_eye_or_count(&arrival.class, c, Technique::Emission, counters);
+            }
+        }
     }
 }
 
@@ -418,7 +338,7 @@ impl SamplerVisitor for RenderWith<'_, '_> {
             schedule.elapsed(),
             width as u64 * height as u64 * out.spp as u64,
             &out.counters,
-            &["emission", "next_event"],
+            &[Technique::Emission, Technique::NextEvent],
             if spec.independent {
                 PixelVariance::Independent
             } else {

@@ -65,7 +65,8 @@ pub struct RenderStats {
     pub photons: u64,
     /// Photons stored in photon maps, summed over maps and passes.
     pub photons_stored: u64,
-    /// Contributions that were NaN or infinite and were left out of the film, by technique.
+    /// Values that were NaN or infinite and were left out of the film, by technique (those the
+    /// integrator uses, zeros included; see [`Technique`]).
     pub non_finite: Vec<(String, u64)>,
     /// Logged outliers (and non-finite contributions), by strategy (`Bdpt`'s `outliers` setting).
     pub outliers: Vec<(String, u64)>,
@@ -80,8 +81,8 @@ pub struct RenderStats {
 
 impl RenderStats {
     /// The statistics of a finished render of `film` at `spp` samples per pixel: `samples`
-    /// camera (or light) paths in `wall` seconds, with the non-finite counters named by
-    /// `techniques` (the integrator's technique numbers).
+    /// camera (or light) paths in `wall` seconds, with the non-finite counts of the integrator's
+    /// `techniques` (and of the walk's scattering step, which every integrator has).
     pub(crate) fn new(
         integrator: &str,
         film: &Film,
@@ -90,7 +91,7 @@ impl RenderStats {
         wall: f64,
         samples: u64,
         counters: &Counters,
-        techniques: &[&str],
+        techniques: &[Technique],
         pixel_variance: PixelVariance,
     ) -> RenderStats {
         RenderStats {
@@ -111,8 +112,8 @@ impl RenderStats {
             outliers: Vec::new(),
             non_finite: techniques
                 .iter()
-                .zip(counters.non_finite)
-                .map(|(t, n)| (t.to_string(), n))
+                .chain([&Technique::Scattering])
+                .map(|&t| (t.name().to_string(), counters.non_finite(t)))
                 .collect(),
             pixel_variance,
             pixel_limit: PixelLimit::PixelIntegral,
@@ -136,11 +137,47 @@ pub struct RenderOutput {
     pub stats: RenderStats,
 }
 
-/// Counters kept per tile and summed; `non_finite` is indexed by the integrator's technique number.
+/// The estimators' techniques whose NaN or infinite values are counted (and kept out of the film),
+/// named in one place. An integrator reports the ones it uses (see [`RenderStats::new`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Technique {
+    /// Emission found by a camera path (a BSDF-sampled ray or the camera ray hitting an emitter).
+    Emission,
+    /// Next-event estimation (a light sampled from a camera-path vertex).
+    NextEvent,
+    /// A light-path vertex connected to the lens and splatted (light tracing, BDPT's t = 1).
+    CameraConnection,
+    /// A BDPT strategy with s ≥ 1 and t ≥ 2, or s = 0 (what lands in the sample's own pixel).
+    Connection,
+    /// Emission and next-event estimation of the photon mappers' camera walk.
+    Camera,
+    /// A photon's flux, or a photon-map estimate.
+    Photon,
+    /// A BSDF sample whose weight f·|cos|/p was not finite (the walk ends the path there).
+    Scattering,
+}
+
+impl Technique {
+    const COUNT: usize = 7;
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Technique::Emission => "emission",
+            Technique::NextEvent => "next_event",
+            Technique::CameraConnection => "camera_connection",
+            Technique::Connection => "connection",
+            Technique::Camera => "camera",
+            Technique::Photon => "photon",
+            Technique::Scattering => "scattering",
+        }
+    }
+}
+
+/// Counters kept per tile and summed.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Counters {
     pub rays: u64,
-    pub non_finite: [u64; 2],
+    non_finite: [u64; Technique::COUNT],
 }
 
 impl Counters {
@@ -149,6 +186,17 @@ impl Counters {
         for (a, b) in self.non_finite.iter_mut().zip(o.non_finite) {
             *a += b;
         }
+    }
+
+    /// Counts one non-finite value of `technique`.
+    #[inline]
+    pub fn count_non_finite(&mut self, technique: Technique) {
+        self.non_finite[technique as usize] += 1;
+    }
+
+    /// Non-finite values of `technique` so far.
+    pub fn non_finite(&self, technique: Technique) -> u64 {
+        self.non_finite[technique as usize]
     }
 }
 

@@ -4,6 +4,7 @@
 //! from a photon group, so that the pass driver (`passes`) can turn them into pixel statistics.
 
 use crate::paths::{PathClass, Router};
+use crate::render::{Counters, Technique};
 use glam::Vec2;
 use lightlab_core::Rgb;
 
@@ -75,6 +76,23 @@ impl<'r> Sink<'r> {
             self.values[0] += c;
         } else {
             self.add(&eye.reversed(), c);
+        }
+    }
+
+    /// [`Sink::add_eye`] unless `c` is NaN or infinite, which is counted against `technique`
+    /// instead (design.md).
+    #[inline]
+    pub(crate) fn add_eye_or_count(
+        &mut self,
+        eye: &PathClass,
+        c: Rgb,
+        technique: Technique,
+        counters: &mut Counters,
+    ) {
+        if c.is_finite() {
+            self.add_eye(eye, c);
+        } else {
+            counters.count_non_finite(technique);
         }
     }
 

@@ -9,25 +9,20 @@
 //! light sampling is the only strategy for direct light, so it has weight 1 there.
 
 use super::map::GatherPoint;
-use crate::nee::{emitted, environment_light_pdf, light_pdf_of_hit, sample_direct};
+use crate::nee::{Competition, emission_found, environment_found, sample_direct};
 use crate::paths::PathClass;
-use crate::render::Counters;
-use crate::roulette::survives;
+use crate::render::{Counters, Technique};
 use crate::sink::Sink;
+use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, from_camera};
 use glam::Vec2;
-use lightlab_core::{Rgb, TransportMode};
-use lightlab_geometry::{Hit, NO_LIGHT, spawn_ray};
-use lightlab_materials::{LobeClass, SurfaceBsdf};
+use lightlab_core::{Ray, Rgb, TransportMode};
+use lightlab_materials::LobeClass;
 use lightlab_samplers::Sampler;
-use lightlab_samplers::mis::power_heuristic;
 use lightlab_scene::Scene;
-
-/// Technique number of non-finite camera-side contributions (emission and direct lighting).
-pub const CAMERA: usize = 0;
 
 /// Settings of the camera walk.
 #[derive(Clone, Copy, Debug)]
-pub struct Walk {
+pub struct CameraWalk {
     pub max_bounces: u32,
     pub min_bounces: u32,
     pub russian_roulette: Option<u32>,
@@ -41,7 +36,8 @@ pub struct Walk {
 #[derive(Clone, Copy, Debug)]
 pub struct VisiblePoint {
     pub gather: GatherPoint,
-    pub hit: Hit,
+    /// The surface vertex itself (depth d, throughput `beta`).
+    pub(crate) vertex: PathVertex,
     /// Camera-path throughput up to the point (We·Π f·|cos|/p, We/p = 1 for the pinhole).
     pub beta: Rgb,
     /// Scattering vertices from the camera, the visible point included (d ≥ 1): photons of k
@@ -52,6 +48,23 @@ pub struct VisiblePoint {
 }
 
 impl VisiblePoint {
+    /// The visible point at surface vertex `v`, reached as `arrival` says.
+    #[inline]
+    pub(crate) fn at(v: &PathVertex, arrival: &Arrival) -> VisiblePoint {
+        let sb = v.sb.expect("a visible point is on a surface");
+        VisiblePoint {
+            gather: GatherPoint {
+                p: v.p,
+                wo: v.wo,
+                bsdf: sb,
+            },
+            vertex: *v,
+            beta: v.beta,
+            depth: v.depth,
+            eye: arrival.class,
+        }
+    }
+
     /// Range of photon bounce counts k whose paths through this point have between `min` and `max`
     /// scattering vertices.
     #[inline]
@@ -78,106 +91,107 @@ impl VisiblePoint {
 /// its light samples change.
 pub fn walk<S: Sampler, T: Sampler>(
     scene: &Scene,
-    cfg: &Walk,
+    cfg: &CameraWalk,
     film: Vec2,
     sampler: &mut S,
     lights: &mut T,
     l: &mut Sink,
     counters: &mut Counters,
 ) -> Option<VisiblePoint> {
-    let mut ray = scene.camera.generate_ray(film, sampler.next_2d());
-    // Scattering vertices so far, camera first.
-    let mut class = PathClass::EMPTY;
-    let mut beta = Rgb::WHITE;
-    let mut eta_scale = 1.0f32;
-    let mut depth = 0u32;
-    // Whether emission reached from the previous vertex competes with light sampling there, and
-    // the BSDF pdf it was reached with.
-    let mut prev_nee: Option<f32> = None;
-    let mut prev_p = ray.o;
-    loop {
-        counters.rays += 1;
-        let Some(hit) = scene.intersect(&ray) else {
-            let le = scene.environment_le();
-            if depth >= cfg.min_bounces && !le.is_black() {
-                let w = prev_nee.map_or(1.0, |bsdf_pdf| {
-                    power_heuristic(1.0, bsdf_pdf, 1.0, environment_light_pdf(scene))
-                });
-                add(l, &class, beta * le * w, counters);
+    // Emission is found at the vertex after the last one a path may scatter at.
+    let walk = Walk {
+        mode: TransportMode::Radiance,
+        max_depth: cfg.max_bounces.saturating_add(1),
+        russian_roulette: cfg.russian_roulette,
+        directions: Directions::Bsdf,
+    };
+    let mut visitor = ToVisiblePoint {
+        scene,
+        cfg,
+        lights,
+        l,
+        competition: if cfg.direct {
+            Competition::Power
+        } else {
+            Competition::None
+        },
+        found: None,
+    };
+    from_camera(scene, &walk, film, sampler, &mut visitor, counters);
+    visitor.found
+}
+
+/// The camera walk's visitor: emission and next-event estimation on the way, and the visible
+/// point where it stops.
+struct ToVisiblePoint<'a, 'r, T> {
+    scene: &'a Scene,
+    cfg: &'a CameraWalk,
+    lights: &'a mut T,
+    l: &'a mut Sink<'r>,
+    /// Emission after a glossy vertex competes with next-event estimation there.
+    competition: Competition,
+    found: Option<VisiblePoint>,
+}
+
+impl<T: Sampler> Visitor for ToVisiblePoint<'_, '_, T> {
+    #[inline]
+    fn vertex<S: Sampler>(
+        &mut self,
+        v: &PathVertex,
+        arrival: &Arrival,
+        _sampler: &mut S,
+        counters: &mut Counters,
+    ) -> bool {
+        let (scene, cfg) = (self.scene, self.cfg);
+        if arrival.class.len() >= cfg.min_bounces {
+            let c = emission_found(scene, v, arrival, self.competition);
+            if !c.is_black() {
+                self.l
+                    .add_eye_or_count(&arrival.class, c, Technique::Camera, counters);
             }
-            return None;
+        }
+        if v.depth > cfg.max_bounces {
+            return false;
+        }
+        let Some(sb) = v.sb else {
+            return false;
         };
-        let wo = -ray.d.normalize();
-        if hit.light != NO_LIGHT && depth >= cfg.min_bounces {
-            let le = emitted(scene, &hit, wo);
-            if !le.is_black() {
-                let w = prev_nee.map_or(1.0, |bsdf_pdf| {
-                    power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf_of_hit(scene, prev_p, &hit))
-                });
-                add(l, &class, beta * le * w, counters);
-            }
-        }
-        if depth >= cfg.max_bounces {
-            return None;
-        }
-        let bsdf = scene.materials[hit.material as usize];
-        let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
-        let class_here = bsdf.lobe_class();
+        let class_here = sb.bsdf.lobe_class();
         let gathers = match class_here {
             LobeClass::Specular => false,
             LobeClass::Glossy => !cfg.trace_glossy,
             LobeClass::Diffuse => true,
         };
-        let (u_light, u_point) = (lights.next_1d(), lights.next_2d());
+        let (u_light, u_point) = (self.lights.next_1d(), self.lights.next_2d());
         if cfg.direct
             && class_here != LobeClass::Specular
-            && depth + 1 >= cfg.min_bounces
-            && let Some(d) = sample_direct(scene, &hit, &sb, wo, u_light, u_point, true, counters)
+            && v.depth >= cfg.min_bounces
+            && let Some(d) = sample_direct(scene, v, &sb, v.wo, u_light, u_point, true, counters)
         {
-            let w = if gathers || d.delta {
+            // At the visible point light sampling is the only strategy for direct light.
+            let w = if gathers {
                 1.0
             } else {
-                power_heuristic(1.0, d.light_pdf, 1.0, d.bsdf_pdf)
+                self.competition.direct_weight(&d)
             };
-            add(l, &class.push(class_here), beta * d.value * w, counters);
+            self.l
+                .add_eye_or_count(&v.class, v.beta * d.value * w, Technique::Camera, counters);
         }
         if gathers {
-            return Some(VisiblePoint {
-                gather: GatherPoint {
-                    p: hit.p,
-                    wo,
-                    bsdf: sb,
-                },
-                hit,
-                beta,
-                depth: depth + 1,
-                eye: class,
-            });
+            self.found = Some(VisiblePoint::at(v, arrival));
+            return false;
         }
-        class = class.push(class_here);
-        let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
-        let s = sb.sample(wo, u_lobe, u_dir, TransportMode::Radiance)?;
-        beta *= s.weight;
-        if s.transmission {
-            eta_scale *= s.eta * s.eta;
-        }
-        prev_nee = (cfg.direct && !s.delta).then_some(s.pdf);
-        prev_p = hit.p;
-        depth += 1;
-        let score = beta.max_component() * eta_scale;
-        if !survives(cfg.russian_roulette, depth, score, u_rr, &mut beta) {
-            return None;
-        }
-        ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
+        true
     }
-}
 
-/// Adds a contribution of the camera-first class `eye` unless it is not finite (counted).
-#[inline]
-fn add(l: &mut Sink, eye: &PathClass, c: Rgb, counters: &mut Counters) {
-    if c.is_finite() {
-        l.add_eye(eye, c);
-    } else {
-        counters.non_finite[CAMERA] += 1;
+    #[inline]
+    fn escaped(&mut self, _ray: &Ray, beta: Rgb, arrival: &Arrival, counters: &mut Counters) {
+        if arrival.class.len() >= self.cfg.min_bounces {
+            let c = environment_found(self.scene, beta, arrival, self.competition);
+            if !c.is_black() {
+                self.l
+                    .add_eye_or_count(&arrival.class, c, Technique::Camera, counters);
+            }
+        }
     }
 }

@@ -32,19 +32,18 @@
 //! A time budget builds the maps once (their time counts) and adds camera samples until the time
 //! is spent.
 
-use super::camera::{self, VisiblePoint, Walk};
+use super::camera::{self, CameraWalk, VisiblePoint};
 use super::config::{Indirect, PhotonMapConfig};
-use super::map::{GatherPoint, PhotonMap, Search};
-use super::trace::{GROUPS, Keep, PHOTON_FLUX, PhotonTracing, trace_photons};
+use super::map::{PhotonMap, Search};
+use super::trace::{GROUPS, Keep, PhotonTracing, trace_photons};
 use crate::passes::{PassSpec, Schedule, run_passes};
 use crate::paths::{PathClass, Router};
-use crate::render::{Counters, PixelVariance, named};
+use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::sink::Sink;
+use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, continue_walk};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, Rgb, TransportMode};
-use lightlab_geometry::spawn_ray;
-use lightlab_materials::SurfaceBsdf;
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
 
@@ -68,9 +67,9 @@ impl PhotonMapper {
         Ok(PhotonMapper { config, router })
     }
 
-    fn walk(&self) -> Walk {
+    fn walk(&self) -> CameraWalk {
         let c = &self.config;
-        Walk {
+        CameraWalk {
             max_bounces: c.max_bounces.unwrap_or(u32::MAX),
             min_bounces: c.min_bounces,
             russian_roulette: c.russian_roulette,
@@ -131,66 +130,58 @@ impl PhotonMapper {
     ) {
         let c = &self.config;
         let max = c.max_bounces.unwrap_or(u32::MAX);
-        let x_class = vp.gather.bsdf.bsdf.lobe_class();
+        // Specular chains from x to y are short and end at y: no roulette.
+        let walk = Walk {
+            mode: TransportMode::Radiance,
+            max_depth: max,
+            russian_roulette: None,
+            directions: Directions::Bsdf,
+        };
+        let mut from = vp.vertex;
+        from.beta = vp.beta / rays as f32;
+        let mut gather = Gather {
+            pm: self,
+            map,
+            search,
+            l,
+        };
         for _ in 0..rays {
-            let (u_lobe, u_dir) = (sampler.next_1d(), sampler.next_2d());
-            let Some(s) =
-                vp.gather
-                    .bsdf
-                    .sample(vp.gather.wo, u_lobe, u_dir, TransportMode::Radiance)
-            else {
-                continue;
-            };
-            let mut beta = vp.beta * s.weight / rays as f32;
-            let mut ray = spawn_ray(vp.hit.p, vp.hit.p_error, vp.hit.ng, s.wi);
-            let mut depth = vp.depth;
-            // Camera-first classes of the vertices before the gather vertex y.
-            let mut eye = vp.eye.push(x_class);
-            loop {
-                counters.rays += 1;
-                let Some(hit) = scene.intersect(&ray) else {
-                    break;
-                };
-                depth += 1;
-                if depth > max {
-                    break;
-                }
-                let bsdf = scene.materials[hit.material as usize];
-                let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
-                let wo = -ray.d.normalize();
-                if !bsdf.is_delta() {
-                    let y = VisiblePoint {
-                        gather: GatherPoint {
-                            p: hit.p,
-                            wo,
-                            bsdf: sb,
-                        },
-                        hit,
-                        beta,
-                        depth,
-                        eye,
-                    };
-                    let (lo, hi) = y.photon_bounces(c.min_bounces, max);
-                    map.estimate(&y.gather, search, c.kernel, |ph, g, v| {
-                        if (lo..=hi).contains(&ph.bounces()) {
-                            deposit(l, g, &y.class_with(&ph.class), beta * v, counters);
-                        }
-                    });
-                    break;
-                }
-                eye = eye.push(bsdf.lobe_class());
-                let Some(s) = sb.sample(
-                    wo,
-                    sampler.next_1d(),
-                    sampler.next_2d(),
-                    TransportMode::Radiance,
-                ) else {
-                    break;
-                };
-                beta *= s.weight;
-                ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
-            }
+            continue_walk(scene, &walk, &from, sampler, &mut gather, counters);
         }
+    }
+}
+
+/// The final gather's visitor: the global map's estimate at the first non-delta vertex y.
+struct Gather<'a, 'r> {
+    pm: &'a PhotonMapper,
+    map: &'a PhotonMap,
+    search: Search,
+    l: &'a mut Sink<'r>,
+}
+
+impl Visitor for Gather<'_, '_> {
+    #[inline]
+    fn vertex<S: Sampler>(
+        &mut self,
+        v: &PathVertex,
+        arrival: &Arrival,
+        _sampler: &mut S,
+        counters: &mut Counters,
+    ) -> bool {
+        if v.delta {
+            return true;
+        }
+        let c = &self.pm.config;
+        let y = VisiblePoint::at(v, arrival);
+        let (lo, hi) = y.photon_bounces(c.min_bounces, c.max_bounces.unwrap_or(u32::MAX));
+        let l = &mut *self.l;
+        self.map
+            .estimate(&y.gather, self.search, c.kernel, |ph, g, w| {
+                if (lo..=hi).contains(&ph.bounces()) {
+                    deposit(l, g, &y.class_with(&ph.class), y.beta * w, counters);
+                }
+            });
+        false
     }
 }
 
@@ -200,7 +191,7 @@ fn deposit(l: &mut Sink, group: usize, class: &PathClass, c: Rgb, counters: &mut
     if c.is_finite() {
         l.add_photon(group, class, c);
     } else {
-        counters.non_finite[PHOTON_FLUX] += 1;
+        counters.count_non_finite(Technique::Photon);
     }
 }
 
@@ -310,7 +301,7 @@ impl Integrator for PhotonMapper {
             schedule.elapsed(),
             width as u64 * height as u64 * out.spp as u64,
             &counters,
-            &["camera", "photon"],
+            &[Technique::Camera, Technique::Photon],
             PixelVariance::CameraAndPhotonGroups {
                 groups: GROUPS as u32,
             },

@@ -30,15 +30,15 @@
 //! pass by pass), and under `Local` they are not independent (each radius depends on the photons
 //! before). Experiments measure SPPM's variance across independent trials instead.
 
-use super::camera::{self, Walk};
+use super::camera::{self, CameraWalk};
 use super::config::{ProgressiveConfig, RadiusUpdate};
 use super::grid::HashGrid;
 use super::map::{Kernel, PhotonMap};
-use super::trace::{Keep, PHOTON_FLUX, Photon, PhotonTracing, Traced, trace_photons};
+use super::trace::{Keep, Photon, PhotonTracing, Traced, trace_photons};
 use crate::film::{Film, PixelSums};
 use crate::passes::Schedule;
 use crate::paths::Router;
-use crate::render::{Counters, PixelLimit, PixelVariance, named};
+use crate::render::{Counters, PixelLimit, PixelVariance, Technique, named};
 use crate::sink::Sink;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
@@ -117,7 +117,7 @@ impl Progressive {
         let mut schedule = Schedule::new(*budget, progress, 1);
         let (width, height) = (scene.camera.width, scene.camera.height);
         let max = c.max_bounces.unwrap_or(u32::MAX);
-        let walk = Walk {
+        let walk = CameraWalk {
             max_bounces: max,
             min_bounces: c.min_bounces,
             russian_roulette: c.russian_roulette,
@@ -205,7 +205,7 @@ impl Progressive {
                             None => 0,
                         };
                         if !flux.values[0].is_finite() {
-                            counters.non_finite[PHOTON_FLUX] += 1;
+                            counters.count_non_finite(Technique::Photon);
                             continue;
                         }
                         let norm = (INV_PI / radius_sq) as f64;
@@ -282,7 +282,7 @@ impl Progressive {
             schedule.elapsed(),
             width as u64 * height as u64 * passes as u64,
             &counters,
-            &["camera", "photon"],
+            &[Technique::Camera, Technique::Photon],
             PixelVariance::NotAnEstimate(
                 "per-pass estimates at a shrinking radius are not identically distributed (and \
                  under Local radii not independent): measure the variance across trials"

@@ -12,14 +12,13 @@
 //! concatenated in index order, so a photon map is bit-identical on any number of threads.
 
 use crate::paths::PathClass;
-use crate::render::Counters;
-use crate::roulette::survives;
+use crate::render::{Counters, Technique};
+use crate::walk::{self, Arrival, Directions, PathVertex, Visitor, Walk, from_light};
 use glam::Vec3;
 use lightlab_core::{Ray, Rgb, TransportMode};
-use lightlab_geometry::spawn_ray;
-use lightlab_materials::{LobeClass, SurfaceBsdf};
+use lightlab_materials::LobeClass;
 use lightlab_samplers::{Independent, Sampler};
-use lightlab_scene::{Light, Scene};
+use lightlab_scene::Scene;
 use rayon::prelude::*;
 
 /// Photon paths per parallel work item.
@@ -102,26 +101,11 @@ pub struct PhotonTracing {
     pub keep: Keep,
 }
 
-/// The start of photon path `index`: the emission ray and its flux (before division by the number
-/// of paths). `None` when the scene does not emit or the sample has zero density.
+/// The start of a photon path: the emission ray and its flux (before division by the number of
+/// paths), as [`walk::emit`] samples it. `None` when the scene does not emit or the sample has
+/// zero density.
 pub fn emit(scene: &Scene, sampler: &mut Independent) -> Option<(Ray, Rgb)> {
-    let (u_light, u_pos, u_dir) = (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
-    let (light_index, pmf) = scene.sample_light(u_light)?;
-    let light = &scene.lights[light_index as usize];
-    let em = light.sample_le(scene.shapes(), scene.center, scene.radius, u_pos, u_dir)?;
-    let at_infinity = matches!(light, Light::Environment { .. });
-    let cos = if em.delta_pos || at_infinity {
-        1.0
-    } else {
-        em.n.dot(em.dir).abs()
-    };
-    let power = em.le * (cos / (pmf * em.pdf_pos * em.pdf_dir));
-    let ray = if em.delta_pos || at_infinity {
-        Ray::new(em.p, em.dir)
-    } else {
-        spawn_ray(em.p, em.p_error, em.n, em.dir)
-    };
-    Some((ray, power))
+    walk::emit(scene, sampler).map(|e| (e.ray, e.beta))
 }
 
 /// A sampler positioned at the start of photon path `index` of the stream `seed`.
@@ -206,9 +190,6 @@ pub fn trace_photons(
     }
 }
 
-/// Technique number of non-finite photon fluxes in [`Counters::non_finite`].
-pub const PHOTON_FLUX: usize = 1;
-
 fn trace_one(
     scene: &Scene,
     seed: u64,
@@ -219,54 +200,60 @@ fn trace_one(
     counters: &mut Counters,
 ) {
     let mut sampler = photon_sampler(seed, index);
-    let Some((mut ray, power)) = emit(scene, &mut sampler) else {
-        return;
+    // Survival in proportion to the flux relative to the path's start keeps photon powers
+    // roughly equal (Jensen 2001, §5.2); the walk's roulette scores exactly that.
+    let walk = Walk {
+        mode: TransportMode::Importance,
+        max_depth: how.max_bounces,
+        russian_roulette: how.russian_roulette,
+        directions: Directions::Bsdf,
     };
-    let mut beta = power * scale;
-    let mut bounces = 0u32;
-    let mut class = PathClass::EMPTY;
-    loop {
-        counters.rays += 1;
-        let Some(hit) = scene.intersect(&ray) else {
-            return;
-        };
-        bounces += 1;
-        if bounces > how.max_bounces {
-            return;
+    let mut deposit = Deposit {
+        keep: how.keep,
+        scale,
+        photons,
+    };
+    from_light(scene, &walk, &mut sampler, &mut deposit, counters);
+}
+
+/// The photon-tracing visitor: a photon at every non-delta vertex of the light walk.
+struct Deposit<'a> {
+    keep: Keep,
+    /// 1 / the number of photon paths of the map.
+    scale: f32,
+    photons: &'a mut Vec<Photon>,
+}
+
+impl Visitor for Deposit<'_> {
+    #[inline]
+    fn vertex<S: Sampler>(
+        &mut self,
+        v: &PathVertex,
+        _arrival: &Arrival,
+        _sampler: &mut S,
+        counters: &mut Counters,
+    ) -> bool {
+        if v.delta {
+            return true;
         }
-        let wo = -ray.d.normalize();
-        let bsdf = scene.materials[hit.material as usize];
-        let delta = bsdf.is_delta();
-        class = class.push(bsdf.lobe_class());
-        if !delta {
-            let photon = Photon::new(hit.p, wo, hit.ng, beta, class);
-            if !beta.is_finite() {
-                counters.non_finite[PHOTON_FLUX] += 1;
-                return;
+        let power = v.beta * self.scale;
+        if !power.is_finite() {
+            counters.count_non_finite(Technique::Photon);
+            return false;
+        }
+        let photon = Photon::new(v.p, v.wo, v.ng, power, v.class);
+        match self.keep {
+            Keep::All => {
+                self.photons.push(photon);
+                true
             }
-            match how.keep {
-                Keep::All => photons.push(photon),
-                Keep::Caustic => {
-                    if photon.is_caustic() {
-                        photons.push(photon);
-                    }
-                    return;
+            Keep::Caustic => {
+                if photon.is_caustic() {
+                    self.photons.push(photon);
                 }
+                false
             }
         }
-        let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
-        let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
-        let Some(s) = sb.sample(wo, u_lobe, u_dir, TransportMode::Importance) else {
-            return;
-        };
-        beta *= s.weight;
-        // Survival in proportion to the flux relative to the path's start keeps photon powers
-        // roughly equal (Jensen 2001, §5.2).
-        let score = beta.max_component() / (power * scale).max_component();
-        if !survives(how.russian_roulette, bounces, score, u_rr, &mut beta) {
-            return;
-        }
-        ray = spawn_ray(hit.p, hit.p_error, hit.ng, s.wi);
     }
 }
 

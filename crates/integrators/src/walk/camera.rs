@@ -1,0 +1,60 @@
+//! The camera's end of a path: the ray a pixel sample starts, and the connection of a light-side
+//! vertex to a point sampled on the lens (light tracing; the t = 1 strategies of bidirectional
+//! path tracing, Veach 1997 §10.2).
+
+use super::vertex::{Kind, PathVertex, unoccluded};
+use crate::render::Counters;
+use glam::Vec2;
+use lightlab_core::{Ray, Rgb};
+use lightlab_scene::Scene;
+
+/// The camera vertex and ray through raster position `film` with lens sample `u_lens`, and the
+/// solid-angle density of the ray's direction.
+#[inline]
+pub(crate) fn camera_ray(scene: &Scene, film: Vec2, u_lens: Vec2) -> (PathVertex, Ray, f32) {
+    let ray = scene.camera.generate_ray(film, u_lens);
+    let pdf = scene.camera.pdf_we_dir(ray.o, ray.d);
+    (PathVertex::new(Kind::Camera, ray.o, Rgb::WHITE), ray, pdf)
+}
+
+/// A light-side vertex seen through the lens.
+pub(crate) struct LensConnection {
+    /// Where it lands on the film.
+    pub raster: Vec2,
+    /// The sampled lens point as a camera vertex, β = We / p_ω.
+    pub camera: PathVertex,
+    /// value · |cos θ_v| · We / p_ω: the unweighted contribution to the pixel at `raster`.
+    pub contribution: Rgb,
+}
+
+/// Connects `v` to a point sampled on the lens with `u_lens`. `value(camera)` is what leaves `v`
+/// toward that point per unit of its cosine (β·f for a scattering vertex, Le/p for an
+/// emitter's origin). `None` if the lens cannot see `v`, nothing leaves toward it, or the
+/// segment is blocked.
+#[inline]
+pub(crate) fn connect_to_lens(
+    scene: &Scene,
+    v: &PathVertex,
+    u_lens: Vec2,
+    counters: &mut Counters,
+    value: impl FnOnce(&PathVertex) -> Rgb,
+) -> Option<LensConnection> {
+    let cs = scene.camera.sample_wi(v.p, u_lens)?;
+    if !(cs.pdf_w > 0.0) {
+        return None;
+    }
+    let camera = PathVertex::new(Kind::Camera, cs.p_lens, Rgb::splat(cs.we / cs.pdf_w));
+    let contribution = value(&camera) * camera.beta * v.ns.dot(cs.wi).abs();
+    if contribution.is_black() {
+        return None;
+    }
+    counters.rays += 1;
+    if !unoccluded(scene, v, &camera) {
+        return None;
+    }
+    Some(LensConnection {
+        raster: cs.raster,
+        camera,
+        contribution,
+    })
+}

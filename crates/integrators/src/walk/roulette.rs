@@ -1,0 +1,115 @@
+//! Russian roulette (Arvo & Kirk 1990; pbrt-v4 §14.5.1), applied by the walk's scatter step alone.
+
+use lightlab_core::{Rgb, TransportMode};
+use lightlab_materials::BsdfSample;
+
+/// A walk's roulette: from `start` scattering vertices on (`None`: never), a path of throughput
+/// β continues with probability q = min(1, score) and is divided by q, so the estimate stays
+/// unbiased. The score is β relative to the walk's starting throughput — light paths start with
+/// the emitted flux, in units of power that scale with the scene, which no absolute threshold
+/// can judge — and, for radiance, with the η² of every refraction so far divided out (radiance
+/// is scaled by 1/η² on entering a denser medium; pbrt-v4 §13.4.4), so that paths inside glass
+/// are not ended for a scale factor they lose again on leaving.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Roulette {
+    start: Option<u32>,
+    inv_beta_start: f32,
+    eta_scale: f32,
+    radiance: bool,
+}
+
+impl Roulette {
+    pub fn new(start: Option<u32>, mode: TransportMode, beta_start: Rgb) -> Roulette {
+        Roulette {
+            start,
+            inv_beta_start: 1.0 / beta_start.max_component(),
+            eta_scale: 1.0,
+            radiance: mode == TransportMode::Radiance,
+        }
+    }
+
+    /// Whether the path, after scattering into `s` at its `depth`-th vertex with throughput
+    /// `beta` now, continues; `u` is the roulette's uniform sample.
+    #[inline]
+    pub fn survives(&mut self, depth: u32, s: &BsdfSample, u: f32, beta: &mut Rgb) -> bool {
+        if s.transmission && self.radiance {
+            self.eta_scale *= s.eta * s.eta;
+        }
+        match self.start {
+            Some(start) if depth >= start => {
+                let q = (beta.max_component() * self.inv_beta_start * self.eta_scale).min(1.0);
+                if !(u < q) {
+                    return false;
+                }
+                *beta /= q;
+                true
+            }
+            _ => true,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use lightlab_materials::LobeClass;
+
+    /// A refraction into glass of η = 1.5: radiance is scaled by 1/η² (weight 1/2.25), importance
+    /// is not.
+    fn into_glass(mode: TransportMode) -> BsdfSample {
+        let w = if mode == TransportMode::Radiance {
+            1.0 / 2.25
+        } else {
+            1.0
+        };
+        BsdfSample {
+            wi: -Vec3::Z,
+            f: Rgb::splat(w),
+            pdf: 1.0,
+            weight: Rgb::splat(w),
+            lobe: LobeClass::Specular,
+            transmission: true,
+            eta: 1.5,
+            delta: true,
+        }
+    }
+
+    /// Inside glass a radiance path keeps its full chance of survival: the η² it lost on entering
+    /// is not held against it (pbrt-v4 §13.4.4). A light path (importance) is not rescaled.
+    #[test]
+    fn radiance_roulette_divides_out_the_refraction_scale() {
+        let s = into_glass(TransportMode::Radiance);
+        let mut beta = s.weight;
+        let mut r = Roulette::new(Some(0), TransportMode::Radiance, Rgb::WHITE);
+        assert!(r.survives(1, &s, 0.999, &mut beta));
+        assert_eq!(beta, s.weight, "q = 1 leaves β alone");
+
+        // The same throughput on a light path is a real loss of flux: q = 1/2.25.
+        let mut beta = s.weight;
+        let mut r = Roulette::new(Some(0), TransportMode::Importance, Rgb::WHITE);
+        assert!(!r.survives(1, &s, 0.5, &mut beta));
+        let mut beta = s.weight;
+        let mut r = Roulette::new(Some(0), TransportMode::Importance, Rgb::WHITE);
+        assert!(r.survives(1, &s, 0.3, &mut beta));
+        assert!((beta.r - 1.0).abs() < 1e-6, "β/q = 1, got {beta:?}");
+    }
+
+    /// Roulette starts at its depth and scores β relative to the walk's start.
+    #[test]
+    fn roulette_starts_at_its_depth_relative_to_the_start() {
+        let s = BsdfSample {
+            transmission: false,
+            eta: 1.0,
+            ..into_glass(TransportMode::Importance)
+        };
+        let mut r = Roulette::new(Some(3), TransportMode::Importance, Rgb::splat(100.0));
+        let mut beta = Rgb::splat(50.0);
+        assert!(r.survives(2, &s, 0.99, &mut beta), "before the start depth");
+        assert_eq!(beta, Rgb::splat(50.0));
+        assert!(!r.survives(3, &s, 0.6, &mut beta), "q = 50/100");
+        let mut beta = Rgb::splat(50.0);
+        assert!(r.survives(3, &s, 0.4, &mut beta));
+        assert_eq!(beta, Rgb::splat(100.0));
+    }
+}
