@@ -44,8 +44,11 @@ pub enum ConfigError {
     /// The text is not RON for these settings (an unknown field or variant, a wrong type): where.
     #[error("{line}:{col}: {message}")]
     Syntax {
+        /// Line of the fault, from 1.
         line: usize,
+        /// Column of the fault, from 1.
         col: usize,
+        /// What is wrong there.
         message: String,
     },
     /// A value, or a combination of values, outside what the integrator can do.
@@ -61,6 +64,8 @@ impl From<ConfigError> for String {
 
 /// The check every settings struct passes before an integrator is built from it.
 pub trait Validate {
+    /// `Ok` if an integrator can run with these settings; otherwise what is wrong and what is
+    /// allowed.
     fn validate(&self) -> Result<(), ConfigError>;
 }
 

@@ -11,9 +11,11 @@
 /// The running statistics of one pixel's samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelSums {
+    /// Mean of the samples so far, per channel (Welford's running mean).
     pub mean: [f64; 3],
     /// Σ (xᵢ − mean)², per channel.
     pub m2: [f64; 3],
+    /// Samples so far.
     pub count: u64,
     /// Variance of the mean contributed by what all samples share (Jensen's photon maps, estimated
     /// across independent photon groups), added to s²/n.
@@ -73,8 +75,11 @@ impl PixelSums {
 /// Accumulated samples of an image, row-major, pixel (x, y) at index y·width + x.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
+    /// Pixels per row.
     pub width: u32,
+    /// Rows.
     pub height: u32,
+    /// Each pixel's statistics, row-major.
     pub pixels: Vec<PixelSums>,
     /// Standard error of the image-wide average ([`Film::average`]) from the spread of the
     /// averages of independent sample passes (and photon groups), which holds however correlated
@@ -84,6 +89,7 @@ pub struct Film {
 }
 
 impl Film {
+    /// An empty film of `width` × `height` pixels.
     pub fn new(width: u32, height: u32) -> Film {
         Film {
             width,
@@ -93,15 +99,18 @@ impl Film {
         }
     }
 
+    /// Number of pixels.
     pub fn pixel_count(&self) -> usize {
         self.pixels.len()
     }
 
+    /// Mean of pixel `i` (row-major index).
     #[inline]
     pub fn mean(&self, i: usize) -> [f64; 3] {
         self.pixels[i].mean()
     }
 
+    /// Variance of pixel `i`'s mean (see [`PixelSums::variance_of_mean`]).
     #[inline]
     pub fn variance_of_mean(&self, i: usize) -> [f64; 3] {
         self.pixels[i].variance_of_mean()

@@ -5,6 +5,38 @@
 //! emission seen directly, 1 direct lighting, k the Neumann series truncated after k terms;
 //! `min_bounces` drops the lower terms. Non-finite contributions are counted and kept out of the film.
 //! Nothing here does I/O.
+//!
+//! Settings come as RON (the text `lightlab render --integrator` and experiment files take), are
+//! checked once, and build an [`Integrator`]; every integrator renders a scene into a [`Film`] of
+//! per-pixel means and variances. The white furnace, rendered with four bounces, is Lₑ·Σ_{k≤4} ρᵏ
+//! in every pixel:
+//!
+//! ```
+//! use lightlab_integrators::{Budget, IntegratorConfig};
+//! use std::path::Path;
+//!
+//! let scene = lightlab_scene::parse_scene(
+//!     r#"Scene(
+//!         camera: Camera(eye: (0, 0, 0), target: (0, 0, -1), fov: 60, resolution: (8, 8)),
+//!         materials: { "wall": Diffuse(albedo: (0.8, 0.8, 0.8)) },
+//!         shapes: [Shape(
+//!             geometry: Sphere(center: (0, 0, 0), radius: 1),
+//!             material: "wall",
+//!             emission: (radiance: (0.5, 0.5, 0.5), two_sided: true),
+//!         )],
+//!     )"#,
+//!     Path::new("furnace.ron"),
+//! )?;
+//! let integrator = IntegratorConfig::from_ron("Path(max_bounces: 4)")?.build()?;
+//! let out = integrator.render(&scene, &Budget::Samples(16), 1, &lightlab_core::NoProgress);
+//!
+//! let expected = 0.5 * (0..=4).map(|k| 0.8f64.powi(k)).sum::<f64>();
+//! let se = out.stats.image_mean_se.expect("independent passes")[0];
+//! assert!((out.stats.image_mean[0] - expected).abs() < 4.0 * se + 1e-9);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+#![warn(missing_docs)]
 
 pub mod bdpt;
 mod config;

@@ -81,6 +81,8 @@ impl Validate for LightConfig {
     }
 }
 
+/// Light tracing (Arvo & Kirk 1990; Veach 1997 §10.2's t = 1 strategy alone), built from checked
+/// [`LightConfig`] settings.
 pub struct LightTracer {
     config: LightConfig,
     router: Router,

@@ -106,6 +106,8 @@ pub enum Strategy {
     Uniform,
 }
 
+/// Path tracing with next-event estimation (Kajiya 1986; Veach 1997 §9.2 for the weights), built
+/// from checked [`PathConfig`] settings.
 pub struct PathTracer {
     config: PathConfig,
     router: Router,

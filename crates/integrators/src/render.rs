@@ -13,7 +13,10 @@ pub enum PixelVariance {
     /// The camera samples' s²/n plus the photon maps' share from `groups` independent photon
     /// groups (Jensen's photon mapping): exact for a fixed gather radius, an approximation for the
     /// k nearest photons, whose radius the groups set together (1–4 % low where tested).
-    CameraAndPhotonGroups { groups: u32 },
+    CameraAndPhotonGroups {
+        /// Independent photon groups per map.
+        groups: u32,
+    },
     /// Not the variance of the mean; why.
     NotAnEstimate(String),
 }
@@ -44,13 +47,19 @@ pub enum PixelLimit {
 /// Counters gathered while rendering.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RenderStats {
+    /// The integrator's name (`Path`, `Light`, `Bdpt`, `PhotonMap`, `Ppm`, `Sppm`).
     pub integrator: String,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// Samples per pixel rendered (passes for progressive photon mapping).
     pub spp: u32,
+    /// The seed every random number was derived from.
     pub seed: u64,
+    /// Threads of the rayon pool it ran on (the image does not depend on it).
     pub threads: usize,
+    /// Wall-clock time of the render.
     pub wall_seconds: f64,
     /// Of `wall_seconds`, the calibration renders a time budget needed with a sampler that must
     /// know its sample count in advance (see `Integrator::render`).
@@ -59,7 +68,9 @@ pub struct RenderStats {
     pub samples: u64,
     /// Rays cast: closest-hit and shadow rays together.
     pub rays: u64,
+    /// `rays / wall_seconds`.
     pub rays_per_second: f64,
+    /// `samples / wall_seconds`.
     pub samples_per_second: f64,
     /// Photon paths traced (photon-mapping integrators).
     pub photons: u64,
@@ -76,6 +87,7 @@ pub struct RenderStats {
     pub pixel_limit: PixelLimit,
     /// Image-wide average radiance and its standard error (see [`Film::image_se`]).
     pub image_mean: [f64; 3],
+    /// Its standard error; `None` where the sample passes are not independent.
     pub image_mean_se: Option<[f64; 3]>,
 }
 
@@ -122,11 +134,13 @@ impl RenderStats {
         }
     }
 
+    /// Non-finite values over all techniques.
     pub fn non_finite_total(&self) -> u64 {
         self.non_finite.iter().map(|(_, n)| n).sum()
     }
 }
 
+/// What a render returns: the image, its layers, logged outliers and statistics.
 pub struct RenderOutput {
     /// The full image (only the paths the integrator's `paths` expression selects, if it has one).
     pub film: Film,
@@ -134,6 +148,7 @@ pub struct RenderOutput {
     pub layers: Vec<(String, Film)>,
     /// Contributions logged for provenance (`Bdpt` with `outliers`, and every non-finite one).
     pub outliers: Vec<crate::bdpt::Outlier>,
+    /// Counts, times and what the variance layer means.
     pub stats: RenderStats,
 }
 
@@ -160,6 +175,7 @@ pub enum Technique {
 impl Technique {
     const COUNT: usize = 7;
 
+    /// Its name in statistics and results (`non_finite` entries).
     pub fn name(self) -> &'static str {
         match self {
             Technique::Emission => "emission",
@@ -176,11 +192,13 @@ impl Technique {
 /// Counters kept per tile and summed.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Counters {
+    /// Rays cast: closest-hit and shadow rays.
     pub rays: u64,
     non_finite: [u64; Technique::COUNT],
 }
 
 impl Counters {
+    /// Adds `o`'s counts to these.
     pub fn merge(&mut self, o: &Counters) {
         self.rays += o.rays;
         for (a, b) in self.non_finite.iter_mut().zip(o.non_finite) {

@@ -59,6 +59,7 @@ impl<'r> Sink<'r> {
         self.group_values.fill(Rgb::BLACK);
     }
 
+    /// The router that sends contributions to layers by path class.
     pub fn router(&self) -> &'r Router {
         self.router
     }

@@ -19,6 +19,7 @@ pub struct PathClass {
 }
 
 impl PathClass {
+    /// No scattering vertex: the path `LE`.
     pub const EMPTY: PathClass = PathClass { bits: 0, len: 0 };
 
     #[inline]
@@ -47,6 +48,7 @@ impl PathClass {
         self.len
     }
 
+    /// Whether the class has no scattering vertex.
     #[inline]
     pub fn is_empty(&self) -> bool {
         self.len == 0

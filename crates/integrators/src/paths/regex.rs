@@ -25,8 +25,11 @@ const DEAD: u32 = 0;
 /// A malformed expression: where (1-based column, in characters) and what.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PathRegexError {
+    /// The expression as written.
     pub expression: String,
+    /// Column of the fault, from 1, in characters.
     pub column: usize,
+    /// What is wrong there.
     pub message: String,
 }
 
@@ -353,6 +356,7 @@ impl PathRegex {
         Ok(re)
     }
 
+    /// The expression as written.
     pub fn as_str(&self) -> &str {
         &self.source
     }

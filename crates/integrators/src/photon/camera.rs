@@ -23,8 +23,11 @@ use lightlab_scene::Scene;
 /// Settings of the camera walk.
 #[derive(Clone, Copy, Debug)]
 pub struct CameraWalk {
+    /// Most scattering vertices of a full path (the integrator's `max_bounces`).
     pub max_bounces: u32,
+    /// Fewest scattering vertices of a contribution.
     pub min_bounces: u32,
+    /// Russian roulette from this many camera vertices on; `None`: never.
     pub russian_roulette: Option<u32>,
     /// Continue through glossy surfaces instead of gathering there.
     pub trace_glossy: bool,
@@ -35,6 +38,7 @@ pub struct CameraWalk {
 /// Where the camera path stopped to gather photons.
 #[derive(Clone, Copy, Debug)]
 pub struct VisiblePoint {
+    /// What a density estimate needs of the point.
     pub gather: GatherPoint,
     /// The surface vertex itself (depth d, throughput `beta`).
     pub(crate) vertex: PathVertex,

@@ -9,11 +9,14 @@ use serde::{Deserialize, Serialize};
 /// sphere, so one setting fits scenes of any scale.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Length {
+    /// In scene units.
     Absolute(f32),
+    /// This fraction of the scene's bounding radius.
     Relative(f32),
 }
 
 impl Length {
+    /// The length in scene units for a scene of bounding radius `scene_radius`.
     pub fn resolve(self, scene_radius: f32) -> f32 {
         match self {
             Length::Absolute(r) => r,
@@ -41,7 +44,12 @@ pub enum Gather {
     /// All photons within a fixed radius.
     Radius(Length),
     /// The k nearest photons (Jensen 2001, §7.1), no farther than `max_radius`.
-    Nearest { k: u32, max_radius: Length },
+    Nearest {
+        /// Photons gathered (the estimate uses the k − 1 inside the k-th one's distance).
+        k: u32,
+        /// Largest search radius.
+        max_radius: Length,
+    },
 }
 
 /// The smallest gather radius the scene's f32 positions resolve: 256 float steps at its largest
@@ -81,6 +89,7 @@ impl Gather {
         }
     }
 
+    /// The photon-map search for a scene of bounding radius `scene_radius`.
     pub fn search(self, scene_radius: f32) -> Search {
         match self {
             Gather::Radius(r) => {
@@ -120,7 +129,10 @@ pub enum Indirect {
     Direct,
     /// Final gather (Jensen 2001, §9.3): `rays` BSDF-sampled rays from the visible point, each
     /// reading the global map where it lands (after any specular surfaces).
-    FinalGather { rays: u32 },
+    FinalGather {
+        /// Gather rays per visible point.
+        rays: u32,
+    },
 }
 
 /// Settings of Jensen's two-pass photon mapping: `PhotonMap(photons: 1_000_000)`; every field

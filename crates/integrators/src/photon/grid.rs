@@ -7,6 +7,7 @@
 use super::trace::Photon;
 use glam::{IVec3, Vec3};
 
+/// Photons bucketed by a spatial hash of cells of edge 2r, for gathers of radius r.
 pub struct HashGrid {
     /// Photons sorted by cell hash.
     photons: Vec<Photon>,

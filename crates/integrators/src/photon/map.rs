@@ -61,21 +61,33 @@ impl Kernel {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Search {
     /// Every photon within `radius_sq`.
-    Radius { radius_sq: f32 },
+    Radius {
+        /// The squared radius (kiddo's distances are squared).
+        radius_sq: f32,
+    },
     /// The k nearest photons, no farther than `max_radius_sq`; the estimate's radius is the k-th
     /// distance (or the cap when fewer are found).
-    Nearest { k: usize, max_radius_sq: f32 },
+    Nearest {
+        /// Photons found.
+        k: usize,
+        /// Squared largest search radius.
+        max_radius_sq: f32,
+    },
 }
 
 /// A point where radiance is estimated from photons.
 #[derive(Clone, Copy, Debug)]
 pub struct GatherPoint {
+    /// The surface point.
     pub p: Vec3,
     /// Unit direction toward the camera side of the path.
     pub wo: Vec3,
+    /// The surface's BSDF there, which weights each photon.
     pub bsdf: SurfaceBsdf,
 }
 
+/// Photons indexed by a kd-tree (kiddo) for radius and k-nearest searches (Jensen 2001, ch. 6),
+/// with the photon groups that give its own variance.
 pub struct PhotonMap {
     photons: Vec<Photon>,
     /// Index of the first photon of each group (photons are in path order, groups are ranges of
@@ -86,6 +98,7 @@ pub struct PhotonMap {
 }
 
 impl PhotonMap {
+    /// Indexes the photons of a tracing pass.
     pub fn new(traced: Traced) -> PhotonMap {
         let Traced {
             photons,
@@ -113,14 +126,17 @@ impl PhotonMap {
             - 1
     }
 
+    /// Its photons, in path order.
     pub fn photons(&self) -> &[Photon] {
         &self.photons
     }
 
+    /// Number of photons.
     pub fn len(&self) -> usize {
         self.photons.len()
     }
 
+    /// Whether it holds no photon.
     pub fn is_empty(&self) -> bool {
         self.photons.is_empty()
     }

@@ -52,6 +52,7 @@ const LIGHT_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
 /// Seed offset of the caustic map's photon stream (independent of the global map's).
 const CAUSTIC_STREAM: u64 = 0x1405_7b7e_f767_814f;
 
+/// Jensen's two-pass photon mapping, built from checked [`PhotonMapConfig`] settings.
 pub struct PhotonMapper {
     config: PhotonMapConfig,
     router: Router,

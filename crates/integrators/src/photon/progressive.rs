@@ -53,10 +53,14 @@ const LIGHT_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
 /// Which progressive variant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Variant {
+    /// Progressive photon mapping: the same visible point every pass (Hachisuka et al. 2008).
     Ppm,
+    /// Stochastic progressive photon mapping: a new camera path every pass (Hachisuka & Jensen
+    /// 2009).
     Sppm,
 }
 
+/// PPM or SPPM, built from checked [`ProgressiveConfig`] settings.
 pub struct Progressive {
     config: ProgressiveConfig,
     variant: Variant,

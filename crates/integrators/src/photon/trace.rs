@@ -30,6 +30,7 @@ const PHOTON_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
 /// octahedrally in 2 × 16 bits each (Cigolle et al. 2014; error below 1e-4 rad).
 #[derive(Clone, Copy, Debug)]
 pub struct Photon {
+    /// Where it landed.
     pub p: Vec3,
     /// Flux, W per channel, already divided by the number of photon paths of its map.
     pub power: Rgb,
@@ -98,6 +99,7 @@ pub struct PhotonTracing {
     pub max_bounces: u32,
     /// Russian roulette from this many scattering vertices on.
     pub russian_roulette: Option<u32>,
+    /// Which photons are stored.
     pub keep: Keep,
 }
 
@@ -121,6 +123,7 @@ pub const GROUPS: usize = 16;
 
 /// The photons of a tracing pass, in path order, and where each photon group starts.
 pub struct Traced {
+    /// The photons, in path order.
     pub photons: Vec<Photon>,
     /// Index of the first photon of each of the `GROUPS` groups (paths j with
     /// ⌊j·GROUPS/count⌋ = g form group g).

@@ -8,13 +8,11 @@ use glam::Vec2;
 use lightlab_core::{Ray, Rgb};
 use lightlab_scene::Scene;
 
-/// The camera vertex and ray through raster position `film` with lens sample `u_lens`, and the
-/// solid-angle density of the ray's direction.
+/// The camera vertex and ray through raster position `film` with lens sample `u_lens`.
 #[inline]
-pub(crate) fn camera_ray(scene: &Scene, film: Vec2, u_lens: Vec2) -> (PathVertex, Ray, f32) {
+pub(crate) fn camera_ray(scene: &Scene, film: Vec2, u_lens: Vec2) -> (PathVertex, Ray) {
     let ray = scene.camera.generate_ray(film, u_lens);
-    let pdf = scene.camera.pdf_we_dir(ray.o, ray.d);
-    (PathVertex::new(Kind::Camera, ray.o, Rgb::WHITE), ray, pdf)
+    (PathVertex::new(Kind::Camera, ray.o, Rgb::WHITE), ray)
 }
 
 /// A light-side vertex seen through the lens.

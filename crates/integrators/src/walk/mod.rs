@@ -65,6 +65,10 @@ pub(crate) struct Arrival {
 
 /// What an integrator does along a walk.
 pub(crate) trait Visitor {
+    /// Whether the walk gives its vertices their area densities (`pdf_fwd`; the camera ray's
+    /// density) — what bidirectional methods weight strategies with. The others skip the work.
+    const DENSITIES: bool = false;
+
     /// The walk starts at `v` (the camera, a light's origin, …), before tracing anything.
     #[inline]
     fn origin<S: Sampler>(&mut self, _v: &PathVertex, _sampler: &mut S, _counters: &mut Counters) {}
@@ -90,7 +94,7 @@ pub(crate) trait Visitor {
 
 /// Walks from `ray`, which leaves `from` with throughput `beta` in a direction of density
 /// `pdf` (solid angle; for a ray from an emitter at infinity, the area density of its origin on
-/// the scene's disk).
+/// the scene's disk; read only by visitors that take [`Visitor::DENSITIES`]).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub(crate) fn random_walk<S: Sampler, V: Visitor>(
@@ -130,7 +134,12 @@ pub(crate) fn from_camera<S: Sampler, V: Visitor>(
     visitor: &mut V,
     counters: &mut Counters,
 ) {
-    let (camera, ray, pdf) = camera_ray(scene, film, sampler.next_2d());
+    let (camera, ray) = camera_ray(scene, film, sampler.next_2d());
+    let pdf = if V::DENSITIES {
+        scene.camera.pdf_we_dir(ray.o, ray.d)
+    } else {
+        0.0
+    };
     random_walk(
         scene,
         walk,
@@ -232,7 +241,9 @@ fn trace<S: Sampler, V: Visitor>(
             depth: prev.depth + 1,
             class: arrival.class.push(bsdf.lobe_class()),
         };
-        v.pdf_fwd = prev.convert_density(arrival.pdf_w, &v);
+        if V::DENSITIES {
+            v.pdf_fwd = prev.convert_density(arrival.pdf_w, &v);
+        }
         if !visitor.vertex(&v, &arrival, sampler, counters) || v.depth >= walk.max_depth {
             return;
         }

@@ -266,6 +266,7 @@ pub(crate) fn direction(from: &PathVertex, to: &PathVertex) -> Vec3 {
 }
 
 /// Whether nothing blocks the segment between `a` and `b` (offset off the surfaces they lie on).
+#[inline]
 pub(crate) fn unoccluded(scene: &Scene, a: &PathVertex, b: &PathVertex) -> bool {
     let ray = if b.infinite {
         let mut r = spawn_ray(a.p, a.p_error, a.ng, -b.ng);

@@ -1,0 +1,144 @@
+//! The MIS weight of a strategy (Veach 1997 §10.2, §9.2): the fast form the renderer uses, a walk
+//! over ratios of neighbouring strategies' densities from what the subpaths stored, and (for the
+//! tests) the weight from its definition, every strategy's density recomputed from the path's
+//! geometry. The two are tested against each other (`tests.rs`).
+
+use super::{Bdpt, Mis};
+use crate::walk::PathVertex;
+use lightlab_scene::Scene;
+
+impl Bdpt {
+    /// The MIS weight of strategy (s, t) (pbrt-v4 `MISWeight`, balance heuristic). `sampled` replaces
+    /// the endpoint that strategy sampled anew (the light point for s = 1, the lens point for t = 1).
+    pub(super) fn mis_weight(
+        scene: &Scene,
+        light: &[PathVertex],
+        camera: &[PathVertex],
+        sampled: Option<PathVertex>,
+        s: usize,
+        t: usize,
+        heuristic: Mis,
+    ) -> f32 {
+        if matches!(heuristic, Mis::Only { .. }) {
+            return 1.0;
+        }
+        let mut lv: Vec<PathVertex> = light[..s].to_vec();
+        let mut cv: Vec<PathVertex> = camera[..t].to_vec();
+        // t = 1 samples the lens point (for s = t = 1 too, whose light vertex is the subpath's
+        // origin); s = 1 with t ≥ 2 samples a point on a light.
+        if t == 1 {
+            cv[0] = sampled.expect("t = 1 samples the camera vertex");
+        } else if s == 1 {
+            lv[0] = sampled.expect("s = 1 samples the light vertex");
+        }
+        // The connection vertices are never delta for the connection itself.
+        if t > 0 {
+            cv[t - 1].delta = false;
+        }
+        if s > 0 {
+            lv[s - 1].delta = false;
+        }
+        // Densities of the connection vertices and their predecessors from the other side.
+        if t > 0 {
+            let pt = cv[t - 1];
+            cv[t - 1].pdf_rev = if s > 0 {
+                let qs_minus = if s > 1 { Some(lv[s - 2]) } else { None };
+                lv[s - 1].pdf(scene, qs_minus.as_ref(), &pt)
+            } else {
+                pt.pdf_light_origin(scene)
+            };
+        }
+        if t > 1 {
+            let (pt, pt_minus) = (cv[t - 1], cv[t - 2]);
+            cv[t - 2].pdf_rev = if s > 0 {
+                pt.pdf(scene, Some(&lv[s - 1]), &pt_minus)
+            } else {
+                pt.pdf_light(scene, &pt_minus)
+            };
+        }
+        if s > 0 {
+            let qs = lv[s - 1];
+            let pt_minus = if t > 1 { Some(cv[t - 2]) } else { None };
+            lv[s - 1].pdf_rev = cv[t - 1].pdf(scene, pt_minus.as_ref(), &qs);
+        }
+        if s > 1 {
+            let (qs, qs_minus) = (lv[s - 1], lv[s - 2]);
+            lv[s - 2].pdf_rev = qs.pdf(scene, Some(&cv[t - 1]), &qs_minus);
+        }
+        let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
+        // Each other strategy i enters with rᵢ = pᵢ / p_s: the balance heuristic sums rᵢ, the power
+        // heuristic (β = 2) rᵢ², uniform weights count the strategies (Veach 1997, §9.2).
+        let term = |r: f32| match heuristic {
+            Mis::Balance => r,
+            Mis::Power => r * r,
+            Mis::Uniform => 1.0,
+            Mis::Only { .. } => 0.0,
+        };
+        let mut sum = 0.0f32;
+        let mut ri = 1.0f32;
+        for i in (1..t).rev() {
+            ri *= remap(cv[i].pdf_rev) / remap(cv[i].pdf_fwd);
+            if !cv[i].delta && !cv[i - 1].delta {
+                sum += term(ri);
+            }
+        }
+        ri = 1.0;
+        for i in (0..s).rev() {
+            ri *= remap(lv[i].pdf_rev) / remap(lv[i].pdf_fwd);
+            let delta_before = if i > 0 {
+                lv[i - 1].delta
+            } else {
+                lv[0]
+                    .light()
+                    .is_some_and(|l| scene.lights[l as usize].is_delta())
+            };
+            if !lv[i].delta && !delta_before {
+                sum += term(ri);
+            }
+        }
+        1.0 / (1.0 + sum)
+    }
+}
+
+/// The weight of strategy `s` (s light vertices) for the full path `x`, light first (x₀ on a
+/// light, x_k the camera), from its definition (Veach 1997 eq. 9.13 and §10.2): strategy i
+/// samples the path with density pᵢ = Π_{j<i} L_j · Π_{j≥i} C_j, where L_j is the area density
+/// with which the light side generates x_j and C_j the camera side's (C_k = 1: the lens point is
+/// never weighed), each recomputed from the geometry; wₛ = pₛ^β / Σᵢ pᵢ^β over the strategies
+/// that can make the path — none connects at a Dirac-delta surface, and no camera path hits a
+/// point light (i = 0). A density generated through a delta vertex, which `PathVertex::pdf`
+/// cannot evaluate (0), enters as 1, as the fast form reads it: every possible strategy holds
+/// exactly one of the two a delta vertex has (the light side's if it connects after it, the
+/// camera side's if before), so this is the convention of their ratio being 1.
+#[cfg(test)]
+pub(super) fn reference_weight(scene: &Scene, x: &[PathVertex], s: usize, heuristic: Mis) -> f64 {
+    let k = x.len() - 1;
+    let remap = |p: f32| if p != 0.0 { p as f64 } else { 1.0 };
+    let light_density = |j: usize| match j {
+        0 => remap(x[0].pdf_light_origin(scene)),
+        _ => remap(x[j - 1].pdf(scene, j.checked_sub(2).map(|i| &x[i]), &x[j])),
+    };
+    let camera_density = |j: usize| match j {
+        _ if j == k => 1.0,
+        _ => remap(x[j + 1].pdf(scene, x.get(j + 2), &x[j])),
+    };
+    let delta_light = x[0]
+        .light()
+        .is_some_and(|l| scene.lights[l as usize].is_delta());
+    // x₀ (the light) and x_k (the lens) are never delta surfaces.
+    let possible = |i: usize| match i {
+        0 => !delta_light && !x[0].delta,
+        _ => !x[i - 1].delta && !x[i].delta,
+    };
+    let density = |i: usize| {
+        (0..i).map(light_density).product::<f64>() * (i..=k).map(camera_density).product::<f64>()
+    };
+    let term = |i: usize| match heuristic {
+        Mis::Balance => density(i),
+        Mis::Power => density(i).powi(2),
+        Mis::Uniform => 1.0,
+        Mis::Only { .. } => (i == s) as u8 as f64,
+    };
+    let total: f64 = (0..=k).filter(|&i| possible(i)).map(term).sum();
+    term(s) / total
+}

@@ -1,0 +1,447 @@
+//! Bidirectional path tracing (Veach & Guibas 1994; Lafortune & Willems 1993; Veach 1997 ch. 10)
+//! with every (s, t) strategy combined by multiple importance sampling (Veach 1997 ch. 9).
+//!
+//! Each pixel sample traces a camera subpath z₀…z_{t−1} and a light subpath y₀…y_{s−1} and forms
+//! every full path y₀…y_{s−1} z_{t−1}…z₀ with s + t − 2 scattering vertices within the bounce
+//! limits: s = 0 (the camera path hits an emitter), s = 1 (a point sampled on a light, next-event
+//! estimation), t = 1 (a light vertex connected to a point on the lens and splatted into the pixel it
+//! lands on, as in light tracing — for s = 1 the light's own point, an emitter seen directly) and
+//! s, t ≥ 2 (a deterministic connection of the two subpaths). An emitter seen directly (s + t = 2)
+//! thus has two strategies, the camera ray hitting it (s = 0) and its point splatted through the lens
+//! (s = 1): the second is what renders an emitter smaller than a pixel's footprint.
+//!
+//! MIS: the balance heuristic, computed by Veach's walk over ratios of the area-measure densities
+//! with which neighbouring strategies would have produced the same path (Veach 1997 §10.2;
+//! pbrt-v4 §16.3.4): each vertex stores `pdf_fwd` (density of its generation along its own subpath)
+//! and `pdf_rev` (density of its generation from the other side), and the weight of (s, t) is
+//! 1 / Σᵢ (pᵢ / p_s). Strategies that cannot produce a path (a delta vertex at a connection) are left
+//! out of the sum. At a specular vertex the two directions' densities are the lobe's selection
+//! probability times η²|cos θ| (`delta_densities`: the Dirac delta written in the throughput
+//! measure, which refraction preserves, cancels from the ratios), unlike pbrt's
+//! zero-then-remap-to-one, which loses the cos/d² conversions beside specular chains and the
+//! solid-angle compression of a refraction.
+//!
+//! Research views: `strategy_layers` writes every strategy as a layer, weighted and unweighted;
+//! `outliers` logs large contributions with their provenance, and [`Bdpt::replay`] recomputes any
+//! pixel sample from (seed, pixel, sample index). Russian roulette decides how long subpaths are, not the densities in the weights,
+//! so the weights of all strategies of a path still sum to one.
+//!
+//! Sample dimensions per pixel sample: pixel (2), lens (2), then the camera subpath (per vertex:
+//! lobe 1, direction 2, roulette 1), then the light subpath (light 1, position 2, direction 2, per
+//! vertex lobe 1, direction 2, roulette 1) and the connection samples (per camera vertex: light 1,
+//! light point 2, lens 2). Light subpath values come from a second stream keyed by the pixel sample,
+//! so the camera dimensions keep the layout stratified samplers expect.
+
+mod connect;
+mod mis;
+mod provenance;
+mod subpaths;
+#[cfg(test)]
+mod tests;
+
+pub use connect::Contribution;
+pub use provenance::Outlier;
+
+use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
+use crate::film::Film;
+use crate::passes::{PassSpec, Schedule, run_passes};
+use crate::paths::{Layers, Router};
+use crate::render::{Counters, PixelVariance, Technique};
+use crate::walk::{Directions, PathVertex, Walk};
+use crate::{Budget, Integrator, RenderOutput, RenderStats};
+use lightlab_core::{Progress, TransportMode};
+use lightlab_samplers::{Independent, Sampler, SamplerConfig, SamplerVisitor};
+use lightlab_scene::Scene;
+use provenance::{OUTLIER_MIN_SAMPLES, SplatSource};
+use serde::{Deserialize, Serialize};
+
+/// Settings of bidirectional path tracing: `Bdpt(max_bounces: 8, mis: Balance)`; every field
+/// optional.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields, rename = "Bdpt")]
+pub struct BdptConfig {
+    /// Largest number of scattering vertices of a full path; `None` for no limit. Default `None`.
+    pub max_bounces: Option<u32>,
+    /// Smallest number of scattering vertices a contribution must have. Default 0.
+    pub min_bounces: u32,
+    /// Russian roulette on both subpaths from this many vertices on; `None` turns it off.
+    /// Default `Some(3)`.
+    pub russian_roulette: Option<u32>,
+    /// Sampler of the camera subpaths (the light subpaths use independent samples). Default
+    /// `Independent`.
+    pub sampler: SamplerConfig,
+    /// Strategy weights: `Balance`, `Power`, `Uniform` or `Only(s: S, t: T)`. Default `Balance`.
+    pub mis: Mis,
+    /// Also write every strategy (s, t) as layers `s{s}t{t}` (MIS-weighted; they sum to the image)
+    /// and `s{s}t{t}.unweighted` (the strategy's own estimate of its paths). Needs `max_bounces`.
+    /// Default false.
+    pub strategy_layers: bool,
+    /// Log every contribution larger (in its largest channel) than this multiple of its pixel's
+    /// mean, with its provenance (pixel, sample index, strategy, path class, densities, MIS
+    /// weight), for replay with `lightlab replay`. Non-finite contributions are always logged.
+    /// Default `None` (only non-finite ones).
+    pub outliers: Option<f32>,
+    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
+    /// README's "Path classes"); `None` renders every path. Default `None`.
+    pub paths: Option<String>,
+    /// Image layers written besides the full image: `Off`, `Bounces` or
+    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+    pub layers: Layers,
+}
+
+impl Default for BdptConfig {
+    fn default() -> Self {
+        BdptConfig {
+            max_bounces: None,
+            min_bounces: 0,
+            russian_roulette: default_rr(),
+            sampler: SamplerConfig::Independent,
+            mis: Mis::Balance,
+            strategy_layers: false,
+            outliers: None,
+            paths: None,
+            layers: Layers::Off,
+        }
+    }
+}
+
+impl Validate for BdptConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        check_common(
+            self.max_bounces,
+            self.min_bounces,
+            self.russian_roulette,
+            self.paths.as_deref(),
+            &self.layers,
+        )?;
+        if let Mis::Only { s, t } = self.mis
+            && t == 0
+        {
+            return invalid(format!(
+                "Only(s: {s}, t: 0) is not a strategy: paths must reach the camera, so t ≥ 1"
+            ));
+        }
+        if let Some(f) = self.outliers
+            && !(f > 1.0 && f.is_finite())
+        {
+            return invalid(format!(
+                "outliers is a multiple of the pixel's mean and must be finite and > 1, got {f}"
+            ));
+        }
+        if self.strategy_layers && self.max_bounces.is_none() {
+            return invalid(
+                "strategy_layers needs max_bounces (it bounds the number of strategies)",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// How bidirectional path tracing weights its strategies (Veach 1997, ch. 9).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Mis {
+    /// wᵢ = pᵢ / Σⱼ pⱼ (Veach's balance heuristic).
+    #[default]
+    Balance,
+    /// wᵢ = pᵢ² / Σⱼ pⱼ² (the power heuristic with β = 2).
+    Power,
+    /// wᵢ = 1 / (number of strategies that can produce the path): unweighted averaging.
+    Uniform,
+    /// No MIS: only strategy (s, t), with weight 1 — the paths of s + t − 2 bounces that this one
+    /// strategy samples, for looking at one technique alone.
+    Only {
+        /// Light subpath vertices of the strategy.
+        s: u32,
+        /// Camera subpath vertices of the strategy.
+        t: u32,
+    },
+}
+
+impl Mis {
+    /// Whether strategy (s, t) is left out entirely.
+    pub fn excludes(&self, s: usize, t: usize) -> bool {
+        matches!(*self, Mis::Only { s: os, t: ot } if (os as usize, ot as usize) != (s, t))
+    }
+}
+
+/// Bidirectional path tracing (Veach & Guibas 1994; Veach 1997, ch. 10), built from checked
+/// [`BdptConfig`] settings.
+pub struct Bdpt {
+    config: BdptConfig,
+    router: Router,
+    /// With `strategy_layers`: every strategy (s, t), in layer order.
+    strategies: Vec<(usize, usize)>,
+}
+
+impl Bdpt {
+    /// BDPT with `config` (checked).
+    pub fn new(config: BdptConfig) -> Result<Self, ConfigError> {
+        config.validate()?;
+        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
+            .map_err(ConfigError::Invalid)?;
+        let strategies = match (config.strategy_layers, config.max_bounces) {
+            (true, Some(max)) => (2..=max as usize + 2)
+                .flat_map(|n| (0..n).map(move |s| (s, n - s)))
+                .filter(|&st| st.1 >= 1)
+                .collect(),
+            _ => Vec::new(),
+        };
+        Ok(Bdpt {
+            config,
+            router,
+            strategies,
+        })
+    }
+
+    /// Slot of the weighted layer of strategy (s, t) (the unweighted one follows it), counted from
+    /// the first strategy layer.
+    fn strategy_slot(&self, s: usize, t: usize) -> Option<usize> {
+        self.strategies
+            .iter()
+            .position(|&x| x == (s, t))
+            .map(|i| 2 * i)
+    }
+
+    /// The walk settings of a subpath of at most `max_depth` scattering vertices.
+    fn walk(&self, mode: TransportMode, max_depth: u32) -> Walk {
+        Walk {
+            mode,
+            max_depth,
+            russian_roulette: self.config.russian_roulette,
+            directions: Directions::Bsdf,
+        }
+    }
+}
+
+/// Seed offset of the light subpaths' random-number stream.
+const LIGHT_STREAM: u64 = 0x6c69_6768_7470_6174;
+
+impl Integrator for Bdpt {
+    fn render_passes(
+        &self,
+        scene: &Scene,
+        budget: &Budget,
+        seed: u64,
+        progress: &dyn Progress,
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
+    ) -> RenderOutput {
+        let spp = match *budget {
+            Budget::Samples(n) => n,
+            Budget::Seconds(_) => 1,
+        };
+        self.config.sampler.dispatch(
+            spp,
+            RenderWith {
+                bdpt: self,
+                scene,
+                budget,
+                seed,
+                progress,
+                on_pass,
+            },
+        )
+    }
+
+    fn needs_sample_count(&self) -> bool {
+        self.config.sampler.needs_sample_count()
+    }
+
+    fn best_sample_count(&self, n: u32) -> u32 {
+        self.config.sampler.best_count_up_to(n)
+    }
+}
+
+struct RenderWith<'a, 'b> {
+    bdpt: &'a Bdpt,
+    scene: &'a Scene,
+    budget: &'a Budget,
+    seed: u64,
+    progress: &'a dyn Progress,
+    on_pass: &'b mut dyn FnMut(u32, &Film) -> bool,
+}
+
+/// What one work item keeps besides its contributions: the subpath buffers it reuses, and the
+/// outliers and splat provenance it logged.
+#[derive(Default)]
+struct WorkItem {
+    camera: Vec<PathVertex>,
+    light: Vec<PathVertex>,
+    outliers: Vec<Outlier>,
+    /// Where each splat of the full image came from (only with `outliers`).
+    splat_sources: Vec<SplatSource>,
+}
+
+impl SamplerVisitor for RenderWith<'_, '_> {
+    type Output = RenderOutput;
+
+    fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
+        let RenderWith {
+            bdpt,
+            scene,
+            budget,
+            seed,
+            progress,
+            on_pass,
+        } = self;
+        let cfg = &bdpt.config;
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let router = &bdpt.router;
+        // Per pixel: the full image, the class or bounce layers, then two per strategy.
+        let first_strategy = 1 + router.layer_count();
+        let spec = PassSpec {
+            width,
+            height,
+            slots: first_strategy + 2 * bdpt.strategies.len(),
+            splats: true,
+            groups: 0,
+            independent: cfg.sampler.independent(),
+        };
+        let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
+        let out = run_passes(
+            &spec,
+            router,
+            &mut schedule,
+            on_pass,
+            |x, y, index, sink, counters, item: &mut WorkItem| {
+                let mut sampler = prototype.clone();
+                let mut light_sampler = Independent::new();
+                // Non-finite counts of this sample (the sample holds `counters`).
+                let mut non_finite = Counters::default();
+                let (running_mean, running_count) = sink.running_mean();
+                let scale = running_mean[0].max(running_mean[1]).max(running_mean[2]);
+                let WorkItem {
+                    camera,
+                    light,
+                    outliers,
+                    splat_sources,
+                } = item;
+                bdpt.pixel_sample(
+                    scene,
+                    seed,
+                    (x, y),
+                    index,
+                    &mut sampler,
+                    &mut light_sampler,
+                    (camera, light),
+                    counters,
+                    |c, light, camera| {
+                        let value = c.unweighted * c.weight;
+                        let finite = value.is_finite();
+                        if !finite {
+                            non_finite.count_non_finite(if c.raster.is_some() {
+                                Technique::CameraConnection
+                            } else {
+                                Technique::Connection
+                            });
+                        }
+                        // Camera-side contributions are compared with their pixel's mean over
+                        // the passes before this one; splats (t = 1), which land in other
+                        // pixels, with their pixel's final mean after the render (see
+                        // `splat_outliers`).
+                        let outlier = match cfg.outliers {
+                            Some(factor) if c.raster.is_none() => {
+                                running_count >= OUTLIER_MIN_SAMPLES
+                                    && value.max_component() as f64
+                                        > factor as f64 * scale.max(f64::MIN_POSITIVE)
+                            }
+                            _ => false,
+                        };
+                        if !finite || outlier {
+                            outliers.push(Outlier::new(
+                                (x, y),
+                                index,
+                                c,
+                                running_mean,
+                                light,
+                                camera,
+                            ));
+                        }
+                        if !finite {
+                            return;
+                        }
+                        let strategy = bdpt
+                            .strategy_slot(c.s, c.t)
+                            .filter(|_| c.unweighted.is_finite());
+                        match c.raster {
+                            Some(r) => {
+                                let pixel = sink.pixel_at(r);
+                                sink.splat_routed(pixel, c.layer, value);
+                                if let Some(k) = strategy {
+                                    sink.splat_slot(pixel, first_strategy + k, value);
+                                    sink.splat_slot(pixel, first_strategy + k + 1, c.unweighted);
+                                }
+                                if cfg.outliers.is_some() {
+                                    splat_sources.push(SplatSource {
+                                        target: pixel,
+                                        value,
+                                        pixel: (x, y),
+                                        sample: index,
+                                        s: c.s as u16,
+                                        t: c.t as u16,
+                                    });
+                                }
+                            }
+                            None => {
+                                sink.add_routed(c.layer, value);
+                                if let Some(k) = strategy {
+                                    sink.add_slot(first_strategy + k, value);
+                                    sink.add_slot(first_strategy + k + 1, c.unweighted);
+                                }
+                            }
+                        }
+                    },
+                );
+                counters.merge(&non_finite);
+            },
+        );
+        let mut films = out.films;
+        let film = films.remove(0);
+        let pixels = width as u64 * height as u64;
+        let mut stats = RenderStats::new(
+            "Bdpt",
+            &film,
+            out.spp,
+            seed,
+            schedule.elapsed(),
+            pixels * out.spp as u64,
+            &out.counters,
+            &[Technique::Connection, Technique::CameraConnection],
+            if spec.independent {
+                PixelVariance::Independent
+            } else {
+                PixelVariance::NotAnEstimate(format!(
+                    "the {} sampler's camera subpaths are correlated (s²/n overestimates the \
+                     variance of the mean)",
+                    cfg.sampler.name()
+                ))
+            },
+        );
+        let mut outliers: Vec<Outlier> = out
+            .extras
+            .iter()
+            .flat_map(|r| r.outliers.iter().cloned())
+            .collect();
+        if let Some(factor) = cfg.outliers {
+            outliers.extend(bdpt.splat_outliers(scene, seed, out.spp, &out.extras, &film, factor));
+        }
+        let mut per_strategy: std::collections::BTreeMap<(u32, u32), u64> = Default::default();
+        for o in &outliers {
+            *per_strategy.entry((o.s, o.t)).or_default() += 1;
+        }
+        stats.outliers = per_strategy
+            .into_iter()
+            .map(|((s, t), n)| (format!("s{s}t{t}"), n))
+            .collect();
+        let names = router.layer_names().into_iter().chain(
+            bdpt.strategies
+                .iter()
+                .flat_map(|(s, t)| [format!("s{s}t{t}"), format!("s{s}t{t}.unweighted")]),
+        );
+        RenderOutput {
+            film,
+            layers: names.zip(films).collect(),
+            outliers,
+            stats,
+        }
+    }
+}
