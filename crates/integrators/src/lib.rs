@@ -47,6 +47,7 @@ mod passes;
 pub mod path;
 pub mod paths;
 pub mod photon;
+mod provenance;
 mod render;
 mod sink;
 mod walk;
@@ -61,6 +62,7 @@ pub use photon::config::{
     Gather, Indirect, Length, PhotonMapConfig, ProgressiveConfig, RadiusUpdate,
 };
 pub use photon::map::Kernel;
+pub use provenance::Outlier;
 pub use render::{Counters, PixelLimit, PixelVariance, RenderOutput, RenderStats, Technique};
 pub use sink::Sink;
 

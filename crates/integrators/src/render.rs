@@ -147,7 +147,7 @@ pub struct RenderOutput {
     /// The layers the integrator's `layers` setting asked for, named; they sum to `film`.
     pub layers: Vec<(String, Film)>,
     /// Contributions logged for provenance (`Bdpt` with `outliers`, and every non-finite one).
-    pub outliers: Vec<crate::bdpt::Outlier>,
+    pub outliers: Vec<crate::Outlier>,
     /// Counts, times and what the variance layer means.
     pub stats: RenderStats,
 }

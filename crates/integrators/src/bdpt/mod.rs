@@ -40,12 +40,12 @@ mod subpaths;
 mod tests;
 
 pub use connect::Contribution;
-pub use provenance::Outlier;
 
 use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
 use crate::film::Film;
 use crate::passes::{PassSpec, Schedule, run_passes};
 use crate::paths::{Layers, Router};
+use crate::provenance::Outlier;
 use crate::render::{Counters, PixelVariance, Technique};
 use crate::walk::{Directions, PathVertex, Walk};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
