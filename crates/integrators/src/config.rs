@@ -94,14 +94,85 @@ pub(crate) fn check_common(
     Router::check(paths, layers).map_err(ConfigError::Invalid)
 }
 
+/// Defines an integrator's settings struct `$name` (RON name `$ron`): the fields every integrator
+/// shares — `max_bounces`, `min_bounces`, `russian_roulette` first, `paths` and `layers` last,
+/// documented once here — around its own, each given with its default; serde defaults and
+/// `deny_unknown_fields` (a typo is an error), a `Default` of those defaults, and
+/// `check_common` for its `Validate`.
+macro_rules! settings {
+    (
+        $(#[$meta:meta])*
+        $name:ident as $ron:literal {
+            $( $(#[$field_meta:meta])* $field:ident: $ty:ty = $default:expr, )*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+        #[serde(default, deny_unknown_fields, rename = $ron)]
+        pub struct $name {
+            /// Largest number of scattering vertices of a full path (k of Heckbert's
+            /// `L X₁…X_k E`; the vertex connected to the camera included); `None` for no limit,
+            /// Russian roulette then ends paths. Default `None`.
+            pub max_bounces: Option<u32>,
+            /// Smallest number of scattering vertices a contribution must have: `min_bounces: k,
+            /// max_bounces: k` isolates the k-th term of the Neumann series. Default 0.
+            pub min_bounces: u32,
+            /// Russian roulette from this many scattering vertices on, on every walk the
+            /// integrator makes (camera, light, photon paths), with survival in proportion to the
+            /// throughput relative to the walk's start (`walk::roulette`); `None` turns it off.
+            /// Default `Some(3)`.
+            pub russian_roulette: Option<u32>,
+            $( $(#[$field_meta])* pub $field: $ty, )*
+            /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`;
+            /// see the README's "Path classes"); `None` renders every path. Default `None`.
+            pub paths: Option<String>,
+            /// Image layers written besides the full image: `Off`, `Bounces` or
+            /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
+            pub layers: $crate::paths::Layers,
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                $name {
+                    max_bounces: None,
+                    min_bounces: 0,
+                    russian_roulette: Some(3),
+                    $( $field: $default, )*
+                    paths: None,
+                    layers: $crate::paths::Layers::Off,
+                }
+            }
+        }
+
+        impl $name {
+            /// Validates the settings and builds the router of their `paths` and `layers`: what
+            /// every integrator's constructor starts with.
+            pub(crate) fn checked_router(
+                &self,
+            ) -> Result<$crate::paths::Router, $crate::config::ConfigError> {
+                $crate::config::Validate::validate(self)?;
+                $crate::paths::Router::new(self.paths.as_deref(), &self.layers, self.max_bounces)
+                    .map_err($crate::config::ConfigError::Invalid)
+            }
+
+            /// The checks of the shared fields (`config::check_common`).
+            fn check_common(&self) -> Result<(), $crate::config::ConfigError> {
+                $crate::config::check_common(
+                    self.max_bounces,
+                    self.min_bounces,
+                    self.russian_roulette,
+                    self.paths.as_deref(),
+                    &self.layers,
+                )
+            }
+        }
+    };
+}
+pub(crate) use settings;
+
 /// An `Invalid` error.
 pub(crate) fn invalid<T>(message: impl Into<String>) -> Result<T, ConfigError> {
     Err(ConfigError::Invalid(message.into()))
-}
-
-/// Russian roulette's default start, 3 scattering vertices (serde default).
-pub(crate) fn default_rr() -> Option<u32> {
-    Some(3)
 }
 
 impl Validate for IntegratorConfig {

@@ -23,9 +23,9 @@
 //! (seed, path index), and the driver adds splats in a fixed order, so the image is bit-identical
 //! on any number of threads.
 
-use crate::config::{ConfigError, Validate, check_common, default_rr};
+use crate::config::{ConfigError, Validate, settings};
 use crate::passes::{PassSpec, Schedule, run_passes};
-use crate::paths::{Layers, Router};
+use crate::paths::Router;
 use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::sink::Sink;
 use crate::walk::{
@@ -36,48 +36,15 @@ use glam::Vec2;
 use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
-use serde::{Deserialize, Serialize};
 
-/// Settings of the light tracer: `Light(max_bounces: 8)`; every field optional.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields, rename = "Light")]
-pub struct LightConfig {
-    /// Largest number of scattering vertices (the vertex connected to the camera included); `None`
-    /// for no limit. Default `None`.
-    pub max_bounces: Option<u32>,
-    /// Smallest number of scattering vertices a contribution must have. Default 0.
-    pub min_bounces: u32,
-    /// Russian roulette from this many scattering vertices on; `None` turns it off. Default `Some(3)`.
-    pub russian_roulette: Option<u32>,
-    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
-    /// README's "Path classes"); `None` renders every path. Default `None`.
-    pub paths: Option<String>,
-    /// Image layers written besides the full image: `Off`, `Bounces` or
-    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    pub layers: Layers,
-}
-
-impl Default for LightConfig {
-    fn default() -> Self {
-        LightConfig {
-            max_bounces: None,
-            min_bounces: 0,
-            russian_roulette: default_rr(),
-            paths: None,
-            layers: Layers::Off,
-        }
-    }
+settings! {
+    /// Settings of the light tracer: `Light(max_bounces: 8)`; every field optional.
+    LightConfig as "Light" {}
 }
 
 impl Validate for LightConfig {
     fn validate(&self) -> Result<(), ConfigError> {
-        check_common(
-            self.max_bounces,
-            self.min_bounces,
-            self.russian_roulette,
-            self.paths.as_deref(),
-            &self.layers,
-        )
+        self.check_common()
     }
 }
 
@@ -91,9 +58,7 @@ pub struct LightTracer {
 impl LightTracer {
     /// A light tracer with `config` (checked).
     pub fn new(config: LightConfig) -> Result<Self, ConfigError> {
-        config.validate()?;
-        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .map_err(ConfigError::Invalid)?;
+        let router = config.checked_router()?;
         Ok(LightTracer { config, router })
     }
 

@@ -36,6 +36,14 @@ pub enum Budget {
 }
 
 impl Budget {
+    /// The samples per pixel of a sample budget; `otherwise` for a time budget.
+    pub fn samples_or(&self, otherwise: u32) -> u32 {
+        match *self {
+            Budget::Samples(n) => n,
+            Budget::Seconds(_) => otherwise,
+        }
+    }
+
     /// Checks the budget: at least one sample, or a positive finite time.
     pub fn check(&self) -> Result<(), String> {
         match *self {

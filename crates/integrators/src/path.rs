@@ -11,10 +11,10 @@
 //! walk's BSDF lobe (1), BSDF direction (2), Russian roulette (1) — consumed whether or not they
 //! are used (see `walk`).
 
-use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
+use crate::config::{ConfigError, Validate, invalid, settings};
 use crate::nee::{Competition, emission_found, environment_found, sample_direct};
 use crate::passes::{PassSpec, Schedule, run_passes};
-use crate::paths::{Layers, Router};
+use crate::paths::Router;
 use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::sink::Sink;
 use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, from_camera};
@@ -25,59 +25,23 @@ use lightlab_samplers::{Sampler, SamplerConfig, SamplerVisitor};
 use lightlab_scene::Scene;
 use serde::{Deserialize, Serialize};
 
-/// Settings of the path tracer: `Path(max_bounces: 8, strategy: Mis)`; every field optional.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields, rename = "Path")]
-pub struct PathConfig {
-    /// Largest number of scattering vertices on a path; `None` for no limit (Russian roulette ends
-    /// paths). Default `None`.
-    pub max_bounces: Option<u32>,
-    /// Smallest number of scattering vertices a contribution must have: `min_bounces: k,
-    /// max_bounces: k` isolates the k-th term of the Neumann series. Default 0.
-    pub min_bounces: u32,
-    /// Russian roulette from this many scattering vertices on (survival probability
-    /// min(1, max channel of the throughput)); `None` turns it off. Default `Some(3)`.
-    pub russian_roulette: Option<u32>,
-    /// How directions are chosen at each vertex. Default `Mis`.
-    pub strategy: Strategy,
-    /// Test visibility for next-event estimation. `false` computes direct illumination without
-    /// shadows (only with `Mis` or `LightOnly`, which sample lights). Default true.
-    pub shadows: bool,
-    /// Where the sample values come from: `Independent`, `Stratified`, `LatinHypercube`, `Halton`
-    /// or `Sobol` (see `lightlab_samplers::SamplerConfig`). Default `Independent`.
-    pub sampler: SamplerConfig,
-    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
-    /// README's "Path classes"); `None` renders every path. Default `None`.
-    pub paths: Option<String>,
-    /// Image layers written besides the full image: `Off`, `Bounces` or
-    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    pub layers: Layers,
-}
-
-impl Default for PathConfig {
-    fn default() -> Self {
-        PathConfig {
-            max_bounces: None,
-            min_bounces: 0,
-            russian_roulette: default_rr(),
-            strategy: Strategy::Mis,
-            shadows: true,
-            sampler: SamplerConfig::Independent,
-            paths: None,
-            layers: Layers::Off,
-        }
+settings! {
+    /// Settings of the path tracer: `Path(max_bounces: 8, strategy: Mis)`; every field optional.
+    PathConfig as "Path" {
+        /// How directions are chosen at each vertex. Default `Mis`.
+        strategy: Strategy = Strategy::Mis,
+        /// Test visibility for next-event estimation. `false` computes direct illumination without
+        /// shadows (only with `Mis` or `LightOnly`, which sample lights). Default true.
+        shadows: bool = true,
+        /// Where the sample values come from: `Independent`, `Stratified`, `LatinHypercube`, `Halton`
+        /// or `Sobol` (see `lightlab_samplers::SamplerConfig`). Default `Independent`.
+        sampler: SamplerConfig = SamplerConfig::Independent,
     }
 }
 
 impl Validate for PathConfig {
     fn validate(&self) -> Result<(), ConfigError> {
-        check_common(
-            self.max_bounces,
-            self.min_bounces,
-            self.russian_roulette,
-            self.paths.as_deref(),
-            &self.layers,
-        )?;
+        self.check_common()?;
         if !self.shadows && matches!(self.strategy, Strategy::BsdfOnly | Strategy::Uniform) {
             return invalid(format!(
                 "shadows: false switches off the visibility test of next-event estimation, which \
@@ -116,9 +80,7 @@ pub struct PathTracer {
 impl PathTracer {
     /// A path tracer with `config` (checked).
     pub fn new(config: PathConfig) -> Result<Self, ConfigError> {
-        config.validate()?;
-        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .map_err(ConfigError::Invalid)?;
+        let router = config.checked_router()?;
         Ok(PathTracer { config, router })
     }
 
@@ -248,10 +210,7 @@ impl Integrator for PathTracer {
         progress: &dyn Progress,
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
-        let spp = match *budget {
-            Budget::Samples(n) => n,
-            Budget::Seconds(_) => 1,
-        };
+        let spp = budget.samples_or(1);
         self.config.sampler.dispatch(
             spp,
             RenderWith {

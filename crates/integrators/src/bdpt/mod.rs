@@ -41,10 +41,10 @@ mod tests;
 
 pub use connect::Contribution;
 
-use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
+use crate::config::{ConfigError, Validate, invalid, settings};
 use crate::film::Film;
 use crate::passes::{PassSpec, Schedule, run_passes};
-use crate::paths::{Layers, Router};
+use crate::paths::Router;
 use crate::provenance::Outlier;
 use crate::render::{Counters, PixelVariance, Technique};
 use crate::walk::{Directions, PathVertex, Walk};
@@ -55,65 +55,30 @@ use lightlab_scene::Scene;
 use provenance::{OUTLIER_MIN_SAMPLES, SplatSource};
 use serde::{Deserialize, Serialize};
 
-/// Settings of bidirectional path tracing: `Bdpt(max_bounces: 8, mis: Balance)`; every field
-/// optional.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields, rename = "Bdpt")]
-pub struct BdptConfig {
-    /// Largest number of scattering vertices of a full path; `None` for no limit. Default `None`.
-    pub max_bounces: Option<u32>,
-    /// Smallest number of scattering vertices a contribution must have. Default 0.
-    pub min_bounces: u32,
-    /// Russian roulette on both subpaths from this many vertices on; `None` turns it off.
-    /// Default `Some(3)`.
-    pub russian_roulette: Option<u32>,
-    /// Sampler of the camera subpaths (the light subpaths use independent samples). Default
-    /// `Independent`.
-    pub sampler: SamplerConfig,
-    /// Strategy weights: `Balance`, `Power`, `Uniform` or `Only(s: S, t: T)`. Default `Balance`.
-    pub mis: Mis,
-    /// Also write every strategy (s, t) as layers `s{s}t{t}` (MIS-weighted; they sum to the image)
-    /// and `s{s}t{t}.unweighted` (the strategy's own estimate of its paths). Needs `max_bounces`.
-    /// Default false.
-    pub strategy_layers: bool,
-    /// Log every contribution larger (in its largest channel) than this multiple of its pixel's
-    /// mean, with its provenance (pixel, sample index, strategy, path class, densities, MIS
-    /// weight), for replay with `lightlab replay`. Non-finite contributions are always logged.
-    /// Default `None` (only non-finite ones).
-    pub outliers: Option<f32>,
-    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
-    /// README's "Path classes"); `None` renders every path. Default `None`.
-    pub paths: Option<String>,
-    /// Image layers written besides the full image: `Off`, `Bounces` or
-    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    pub layers: Layers,
-}
-
-impl Default for BdptConfig {
-    fn default() -> Self {
-        BdptConfig {
-            max_bounces: None,
-            min_bounces: 0,
-            russian_roulette: default_rr(),
-            sampler: SamplerConfig::Independent,
-            mis: Mis::Balance,
-            strategy_layers: false,
-            outliers: None,
-            paths: None,
-            layers: Layers::Off,
-        }
+settings! {
+    /// Settings of bidirectional path tracing: `Bdpt(max_bounces: 8, mis: Balance)`; every field
+    /// optional.
+    BdptConfig as "Bdpt" {
+        /// Sampler of the camera subpaths (the light subpaths use independent samples). Default
+        /// `Independent`.
+        sampler: SamplerConfig = SamplerConfig::Independent,
+        /// Strategy weights: `Balance`, `Power`, `Uniform` or `Only(s: S, t: T)`. Default `Balance`.
+        mis: Mis = Mis::Balance,
+        /// Also write every strategy (s, t) as layers `s{s}t{t}` (MIS-weighted; they sum to the image)
+        /// and `s{s}t{t}.unweighted` (the strategy's own estimate of its paths). Needs `max_bounces`.
+        /// Default false.
+        strategy_layers: bool = false,
+        /// Log every contribution larger (in its largest channel) than this multiple of its pixel's
+        /// mean, with its provenance (pixel, sample index, strategy, path class, densities, MIS
+        /// weight), for replay with `lightlab replay`. Non-finite contributions are always logged.
+        /// Default `None` (only non-finite ones).
+        outliers: Option<f32> = None,
     }
 }
 
 impl Validate for BdptConfig {
     fn validate(&self) -> Result<(), ConfigError> {
-        check_common(
-            self.max_bounces,
-            self.min_bounces,
-            self.russian_roulette,
-            self.paths.as_deref(),
-            &self.layers,
-        )?;
+        self.check_common()?;
         if let Mis::Only { s, t } = self.mis
             && t == 0
         {
@@ -176,9 +141,7 @@ pub struct Bdpt {
 impl Bdpt {
     /// BDPT with `config` (checked).
     pub fn new(config: BdptConfig) -> Result<Self, ConfigError> {
-        config.validate()?;
-        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .map_err(ConfigError::Invalid)?;
+        let router = config.checked_router()?;
         let strategies = match (config.strategy_layers, config.max_bounces) {
             (true, Some(max)) => (2..=max as usize + 2)
                 .flat_map(|n| (0..n).map(move |s| (s, n - s)))
@@ -225,10 +188,7 @@ impl Integrator for Bdpt {
         progress: &dyn Progress,
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
-        let spp = match *budget {
-            Budget::Samples(n) => n,
-            Budget::Seconds(_) => 1,
-        };
+        let spp = budget.samples_or(1);
         self.config.sampler.dispatch(
             spp,
             RenderWith {

@@ -1,8 +1,7 @@
 //! Settings of the photon-mapping integrators, as RON (`PhotonMap(...)`, `Ppm(...)`, `Sppm(...)`).
 
 use super::map::{Kernel, Search};
-use crate::config::{ConfigError, Validate, check_common, default_rr, invalid};
-use crate::paths::Layers;
+use crate::config::{ConfigError, Validate, invalid, settings};
 use serde::{Deserialize, Serialize};
 
 /// A length given absolutely (scene units) or as a fraction of the radius of the scene's bounding
@@ -135,122 +134,58 @@ pub enum Indirect {
     },
 }
 
-/// Settings of Jensen's two-pass photon mapping: `PhotonMap(photons: 1_000_000)`; every field
-/// optional.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields, rename = "PhotonMap")]
-pub struct PhotonMapConfig {
-    /// Largest number of scattering vertices of a path, as for every integrator; `None` for no
-    /// limit. Default `None`.
-    pub max_bounces: Option<u32>,
-    /// Smallest number of scattering vertices a contribution must have. Default 0.
-    pub min_bounces: u32,
-    /// Russian roulette on camera and photon paths from this many vertices on. Default `Some(3)`.
-    pub russian_roulette: Option<u32>,
-    /// Photon paths traced for the global map. Default 200 000.
-    pub photons: u64,
-    /// Photon paths traced for the caustic map (only their `L S+ X` photons are kept).
-    /// Default 200 000.
-    pub caustic_photons: u64,
-    /// Gathering from the global map. Default `Nearest(k: 50, max_radius: Relative(0.1))`.
-    pub gather: Gather,
-    /// Gathering from the caustic map. Default `Nearest(k: 50, max_radius: Relative(0.02))`.
-    pub caustic_gather: Gather,
-    /// Density-estimation kernel: `Uniform`, `Cone` or `Epanechnikov`. Default `Uniform`.
-    pub kernel: Kernel,
-    /// Direct lighting by next-event estimation at the visible point (`L D S* E`). Default true.
-    pub direct: bool,
-    /// Caustics from the caustic map (`L S+ D S* E`). Default true.
-    pub caustics: bool,
-    /// Indirect diffuse light: `Off`, `Direct` or `FinalGather(rays: N)`.
-    /// Default `FinalGather(rays: 16)`.
-    pub indirect: Indirect,
-    /// Trace camera paths through glossy surfaces (path tracing there) instead of gathering
-    /// photons on them. Default true.
-    pub trace_glossy: bool,
-    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
-    /// README's "Path classes"); `None` renders every path. Default `None`.
-    pub paths: Option<String>,
-    /// Image layers written besides the full image: `Off`, `Bounces` or
-    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    pub layers: Layers,
-}
-
-impl Default for PhotonMapConfig {
-    fn default() -> Self {
-        PhotonMapConfig {
-            max_bounces: None,
-            min_bounces: 0,
-            russian_roulette: default_rr(),
-            photons: 200_000,
-            caustic_photons: 200_000,
-            gather: Gather::Nearest {
-                k: 50,
-                max_radius: Length::Relative(0.1),
-            },
-            caustic_gather: Gather::Nearest {
-                k: 50,
-                max_radius: Length::Relative(0.02),
-            },
-            kernel: Kernel::Uniform,
-            direct: true,
-            caustics: true,
-            indirect: Indirect::FinalGather { rays: 16 },
-            trace_glossy: true,
-            paths: None,
-            layers: Layers::Off,
-        }
+settings! {
+    /// Settings of Jensen's two-pass photon mapping: `PhotonMap(photons: 1_000_000)`; every field
+    /// optional.
+    PhotonMapConfig as "PhotonMap" {
+        /// Photon paths traced for the global map. Default 200 000.
+        photons: u64 = 200_000,
+        /// Photon paths traced for the caustic map (only their `L S+ X` photons are kept).
+        /// Default 200 000.
+        caustic_photons: u64 = 200_000,
+        /// Gathering from the global map. Default `Nearest(k: 50, max_radius: Relative(0.1))`.
+        gather: Gather = Gather::Nearest {
+            k: 50,
+            max_radius: Length::Relative(0.1),
+        },
+        /// Gathering from the caustic map. Default `Nearest(k: 50, max_radius: Relative(0.02))`.
+        caustic_gather: Gather = Gather::Nearest {
+            k: 50,
+            max_radius: Length::Relative(0.02),
+        },
+        /// Density-estimation kernel: `Uniform`, `Cone` or `Epanechnikov`. Default `Uniform`.
+        kernel: Kernel = Kernel::Uniform,
+        /// Direct lighting by next-event estimation at the visible point (`L D S* E`). Default true.
+        direct: bool = true,
+        /// Caustics from the caustic map (`L S+ D S* E`). Default true.
+        caustics: bool = true,
+        /// Indirect diffuse light: `Off`, `Direct` or `FinalGather(rays: N)`.
+        /// Default `FinalGather(rays: 16)`.
+        indirect: Indirect = Indirect::FinalGather { rays: 16 },
+        /// Trace camera paths through glossy surfaces (path tracing there) instead of gathering
+        /// photons on them. Default true.
+        trace_glossy: bool = true,
     }
 }
 
-/// Settings of progressive photon mapping (`Ppm`: visible points fixed, Hachisuka et al. 2008;
-/// `Sppm`: new visible points every pass, Hachisuka & Jensen 2009): `Sppm(alpha: 0.7)`; every
-/// field optional. The budget's samples per pixel are the number of passes.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields, rename = "Sppm")]
-pub struct ProgressiveConfig {
-    /// Largest number of scattering vertices of a path; `None` for no limit. Default `None`.
-    pub max_bounces: Option<u32>,
-    /// Smallest number of scattering vertices a contribution must have. Default 0.
-    pub min_bounces: u32,
-    /// Russian roulette on camera and photon paths from this many vertices on. Default `Some(3)`.
-    pub russian_roulette: Option<u32>,
-    /// Photon paths per pass. Default 100 000.
-    pub photons_per_pass: u64,
-    /// Initial gather radius r₁. Default `Relative(0.02)` (2 % of the scene's bounding radius).
-    pub radius: Length,
-    /// Fraction of new photons kept per pass, 0 < α < 1. Default 2/3 (the asymptotically best
-    /// trade of bias and variance, Knaus & Zwicker 2011).
-    pub alpha: f32,
-    /// Radius schedule: `Local` or `Global`. Default `Local`.
-    pub update: RadiusUpdate,
-    /// Density-estimation kernel. Default `Uniform`.
-    pub kernel: Kernel,
-    /// Trace camera paths through glossy surfaces instead of gathering on them. Default true.
-    pub trace_glossy: bool,
-    /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`; see the
-    /// README's "Path classes"); `None` renders every path. Default `None`.
-    pub paths: Option<String>,
-    /// Image layers written besides the full image: `Off`, `Bounces` or
-    /// `Classes(["LS+DE", ...])` (plus a `rest` layer). Default `Off`.
-    pub layers: Layers,
-}
-
-impl Default for ProgressiveConfig {
-    fn default() -> Self {
-        ProgressiveConfig {
-            max_bounces: None,
-            min_bounces: 0,
-            russian_roulette: default_rr(),
-            photons_per_pass: 100_000,
-            radius: Length::Relative(0.02),
-            alpha: 2.0 / 3.0,
-            update: RadiusUpdate::Local,
-            kernel: Kernel::Uniform,
-            trace_glossy: true,
-            paths: None,
-            layers: Layers::Off,
-        }
+settings! {
+    /// Settings of progressive photon mapping (`Ppm`: visible points fixed, Hachisuka et al. 2008;
+    /// `Sppm`: new visible points every pass, Hachisuka & Jensen 2009): `Sppm(alpha: 0.7)`; every
+    /// field optional. The budget's samples per pixel are the number of passes.
+    ProgressiveConfig as "Sppm" {
+        /// Photon paths per pass. Default 100 000.
+        photons_per_pass: u64 = 100_000,
+        /// Initial gather radius r₁. Default `Relative(0.02)` (2 % of the scene's bounding radius).
+        radius: Length = Length::Relative(0.02),
+        /// Fraction of new photons kept per pass, 0 < α < 1. Default 2/3 (the asymptotically best
+        /// trade of bias and variance, Knaus & Zwicker 2011).
+        alpha: f32 = 2.0 / 3.0,
+        /// Radius schedule: `Local` or `Global`. Default `Local`.
+        update: RadiusUpdate = RadiusUpdate::Local,
+        /// Density-estimation kernel. Default `Uniform`.
+        kernel: Kernel = Kernel::Uniform,
+        /// Trace camera paths through glossy surfaces instead of gathering on them. Default true.
+        trace_glossy: bool = true,
     }
 }
 
@@ -277,13 +212,7 @@ fn check_photons(n: u64, what: &str) -> Result<(), ConfigError> {
 
 impl Validate for PhotonMapConfig {
     fn validate(&self) -> Result<(), ConfigError> {
-        check_common(
-            self.max_bounces,
-            self.min_bounces,
-            self.russian_roulette,
-            self.paths.as_deref(),
-            &self.layers,
-        )?;
+        self.check_common()?;
         check_photons(self.photons, "photons")?;
         check_photons(self.caustic_photons, "caustic_photons")?;
         self.gather.check("gather").map_err(ConfigError::Invalid)?;
@@ -299,13 +228,7 @@ impl Validate for PhotonMapConfig {
 
 impl Validate for ProgressiveConfig {
     fn validate(&self) -> Result<(), ConfigError> {
-        check_common(
-            self.max_bounces,
-            self.min_bounces,
-            self.russian_roulette,
-            self.paths.as_deref(),
-            &self.layers,
-        )?;
+        self.check_common()?;
         check_photons(self.photons_per_pass, "photons_per_pass")?;
         self.radius.check("radius").map_err(ConfigError::Invalid)?;
         if !(self.alpha > 0.0 && self.alpha < 1.0) {

@@ -61,10 +61,7 @@ pub struct PhotonMapper {
 impl PhotonMapper {
     /// A photon mapper with `config` (checked).
     pub fn new(config: PhotonMapConfig) -> Result<Self, crate::config::ConfigError> {
-        use crate::config::Validate;
-        config.validate()?;
-        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .map_err(crate::config::ConfigError::Invalid)?;
+        let router = config.checked_router()?;
         Ok(PhotonMapper { config, router })
     }
 

@@ -87,10 +87,7 @@ impl Progressive {
         config: ProgressiveConfig,
         variant: Variant,
     ) -> Result<Self, crate::config::ConfigError> {
-        use crate::config::Validate;
-        config.validate()?;
-        let router = Router::new(config.paths.as_deref(), &config.layers, config.max_bounces)
-            .map_err(crate::config::ConfigError::Invalid)?;
+        let router = config.checked_router()?;
         Ok(Progressive {
             config,
             variant,
