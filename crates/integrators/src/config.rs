@@ -15,27 +15,69 @@ use crate::photon::pm::PhotonMapper;
 use crate::photon::progressive::{Progressive, Variant};
 use serde::{Deserialize, Serialize};
 
-/// Which integrator to run and with what settings, e.g. `Path(max_bounces: 8, strategy: Mis)`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub enum IntegratorConfig {
+/// Declares [`IntegratorConfig`], one variant per integrator with its settings and how it is
+/// built, and everything that goes through all variants: registering an integrator is its line
+/// here.
+macro_rules! integrators {
+    ($( $(#[$doc:meta])* $variant:ident($config:ty) => $build:expr, )*) => {
+        /// Which integrator to run and with what settings, e.g. `Path(max_bounces: 8, strategy:
+        /// Mis)`.
+        #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub enum IntegratorConfig {
+            $( $(#[$doc])* $variant($config), )*
+        }
+
+        impl IntegratorConfig {
+            fn settings(&self) -> &dyn Settings {
+                match self {
+                    $( IntegratorConfig::$variant(c) => c, )*
+                }
+            }
+
+            fn settings_mut(&mut self) -> &mut dyn Settings {
+                match self {
+                    $( IntegratorConfig::$variant(c) => c, )*
+                }
+            }
+
+            /// The integrator these settings describe, after checking them (each integrator's
+            /// constructor validates its settings).
+            pub fn build(&self) -> Result<Box<dyn Integrator>, ConfigError> {
+                Ok(match self {
+                    $( IntegratorConfig::$variant(c) => {
+                        Box::new(($build)(c.clone())?) as Box<dyn Integrator>
+                    } )*
+                })
+            }
+        }
+    };
+}
+
+integrators! {
     /// Unidirectional path tracing from the camera (Kajiya 1986) with next-event estimation.
-    Path(PathConfig),
-    /// Light tracing (particle tracing; Arvo & Kirk 1990, Dutré et al. 1993): paths from the lights,
-    /// every non-specular vertex connected to the camera.
-    Light(LightConfig),
-    /// Bidirectional path tracing (Veach & Guibas 1994): every (s, t) connection strategy, combined
-    /// by the balance heuristic.
-    Bdpt(BdptConfig),
+    Path(PathConfig) => PathTracer::new,
+    /// Light tracing (particle tracing; Arvo & Kirk 1990, Dutré et al. 1993): paths from the
+    /// lights, every non-specular vertex connected to the camera.
+    Light(LightConfig) => LightTracer::new,
+    /// Bidirectional path tracing (Veach & Guibas 1994): every (s, t) connection strategy,
+    /// combined by the balance heuristic.
+    Bdpt(BdptConfig) => Bdpt::new,
     /// Photon mapping (Jensen 1996): a global and a caustic photon map, direct light by light
     /// sampling, final gather.
-    PhotonMap(PhotonMapConfig),
-    /// Progressive photon mapping (Hachisuka et al. 2008): fixed visible points, shrinking radius;
-    /// samples per pixel count passes.
-    Ppm(ProgressiveConfig),
+    PhotonMap(PhotonMapConfig) => PhotonMapper::new,
+    /// Progressive photon mapping (Hachisuka et al. 2008): fixed visible points, shrinking
+    /// radius; samples per pixel count passes.
+    Ppm(ProgressiveConfig) => |c| Progressive::new(c, Variant::Ppm),
     /// Stochastic progressive photon mapping (Hachisuka & Jensen 2009): new visible points every
     /// pass; samples per pixel count passes.
-    Sppm(ProgressiveConfig),
+    Sppm(ProgressiveConfig) => |c| Progressive::new(c, Variant::Sppm),
+}
+
+/// What every settings struct offers the variant-independent code ([`settings!`] implements it).
+pub(crate) trait Settings: Validate {
+    /// The `paths` and `layers` settings.
+    fn paths_and_layers(&mut self) -> (&mut Option<String>, &mut Layers);
 }
 
 /// Settings that cannot be used, and why.
@@ -144,6 +186,12 @@ macro_rules! settings {
             }
         }
 
+        impl $crate::config::Settings for $name {
+            fn paths_and_layers(&mut self) -> (&mut Option<String>, &mut $crate::paths::Layers) {
+                (&mut self.paths, &mut self.layers)
+            }
+        }
+
         impl $name {
             /// Validates the settings and builds the router of their `paths` and `layers`: what
             /// every integrator's constructor starts with.
@@ -177,13 +225,7 @@ pub(crate) fn invalid<T>(message: impl Into<String>) -> Result<T, ConfigError> {
 
 impl Validate for IntegratorConfig {
     fn validate(&self) -> Result<(), ConfigError> {
-        match self {
-            IntegratorConfig::Path(c) => c.validate(),
-            IntegratorConfig::Light(c) => c.validate(),
-            IntegratorConfig::Bdpt(c) => c.validate(),
-            IntegratorConfig::PhotonMap(c) => c.validate(),
-            IntegratorConfig::Ppm(c) | IntegratorConfig::Sppm(c) => c.validate(),
-        }
+        self.settings().validate()
     }
 }
 
@@ -214,24 +256,13 @@ impl IntegratorConfig {
             .expect("integrator settings always serialise")
     }
 
-    /// The `paths` and `layers` settings, whatever the integrator.
-    fn paths_and_layers(&mut self) -> (&mut Option<String>, &mut Layers) {
-        match self {
-            IntegratorConfig::Path(c) => (&mut c.paths, &mut c.layers),
-            IntegratorConfig::Light(c) => (&mut c.paths, &mut c.layers),
-            IntegratorConfig::Bdpt(c) => (&mut c.paths, &mut c.layers),
-            IntegratorConfig::PhotonMap(c) => (&mut c.paths, &mut c.layers),
-            IntegratorConfig::Ppm(c) | IntegratorConfig::Sppm(c) => (&mut c.paths, &mut c.layers),
-        }
-    }
-
     /// These settings with `paths` and/or `layers` replaced (checked as when parsed).
     pub fn with_paths_and_layers(
         mut self,
         paths: Option<String>,
         layers: Option<Layers>,
     ) -> Result<IntegratorConfig, ConfigError> {
-        let (p, l) = self.paths_and_layers();
+        let (p, l) = self.settings_mut().paths_and_layers();
         if let Some(paths) = paths {
             *p = Some(paths);
         }
@@ -240,19 +271,6 @@ impl IntegratorConfig {
         }
         self.validate()?;
         Ok(self)
-    }
-
-    /// The integrator these settings describe, after checking them.
-    pub fn build(&self) -> Result<Box<dyn Integrator>, ConfigError> {
-        self.validate()?;
-        Ok(match self {
-            IntegratorConfig::Path(c) => Box::new(PathTracer::new(c.clone())?),
-            IntegratorConfig::Light(c) => Box::new(LightTracer::new(c.clone())?),
-            IntegratorConfig::Bdpt(c) => Box::new(Bdpt::new(c.clone())?),
-            IntegratorConfig::PhotonMap(c) => Box::new(PhotonMapper::new(c.clone())?),
-            IntegratorConfig::Ppm(c) => Box::new(Progressive::new(c.clone(), Variant::Ppm)?),
-            IntegratorConfig::Sppm(c) => Box::new(Progressive::new(c.clone(), Variant::Sppm)?),
-        })
     }
 }
 
