@@ -180,6 +180,43 @@ where
     E: Default + Send,
     F: Fn(u32, u32, u64, &mut Sink, &mut Counters, &mut E) + Sync,
 {
+    drive(spec, router, schedule, on_pass, None, sample)
+}
+
+/// [`run_passes`] for estimators whose passes each start with work every pixel shares (the
+/// photons of progressive photon mapping): `begin(pass, counters)` runs before pass `pass`
+/// (0-based), and every pass renders one sample index, `index = pass`.
+pub(crate) fn run_progressive_passes<E, F>(
+    spec: &PassSpec,
+    router: &Router,
+    schedule: &mut Schedule,
+    on_pass: &mut dyn FnMut(u32, &Film) -> bool,
+    begin: &mut dyn FnMut(u32, &mut Counters),
+    sample: F,
+) -> PassOutput<E>
+where
+    E: Default + Send,
+    F: Fn(u32, u32, u64, &mut Sink, &mut Counters, &mut E) + Sync,
+{
+    drive(spec, router, schedule, on_pass, Some(begin), sample)
+}
+
+/// Work run before a pass, with its 0-based number.
+type PassStart<'a> = &'a mut dyn FnMut(u32, &mut Counters);
+
+/// The driver behind both.
+fn drive<E, F>(
+    spec: &PassSpec,
+    router: &Router,
+    schedule: &mut Schedule,
+    on_pass: &mut dyn FnMut(u32, &Film) -> bool,
+    mut begin: Option<PassStart>,
+    sample: F,
+) -> PassOutput<E>
+where
+    E: Default + Send,
+    F: Fn(u32, u32, u64, &mut Sink, &mut Counters, &mut E) + Sync,
+{
     let (width, height) = (spec.width, spec.height);
     let pixels = width as usize * height as usize;
     let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
@@ -193,7 +230,9 @@ where
         counters: Counters::default(),
         extras: Vec::new(),
     };
-    let preferred = if spec.splats {
+    let preferred = if begin.is_some() {
+        1
+    } else if spec.splats {
         let by_items = MIN_ITEMS.div_ceil(tiles.len());
         let by_memory = (MAX_BUFFERED / (pixels * spec.slots).max(1)).max(1);
         by_items.min(by_memory) as u32
@@ -203,6 +242,9 @@ where
     let mut done = 0u32;
     while let Some(n) = schedule.next_pass(done, preferred) {
         let indices = done as u64..done as u64 + n as u64;
+        if let Some(begin) = begin.as_mut() {
+            begin(done, &mut state.counters);
+        }
         if spec.splats {
             splat_pass(spec, router, schedule, &tiles, indices, &mut state, &sample);
         } else {

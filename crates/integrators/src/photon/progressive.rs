@@ -24,9 +24,11 @@
 //! the radiance along that path — a point sample of the pixel, not its box-filtered value — and
 //! against a reference of the pixel integral the difference at edges and texture never vanishes.
 //!
-//! The film's per-pixel "variance" is the spread of the per-pass estimates (the pass's direct light
-//! plus its photons at the pass's radius) over n. It is not the variance of the pixel mean: the
-//! passes are not identically distributed (the radius shrinks, so variance grows and bias falls
+//! The film's per-pixel mean is the progressive estimate Eᵢ, kept by the shared pass driver as the
+//! running mean of the increments vᵢ = i·Eᵢ − (i − 1)·Eᵢ₋₁ (under `Global`, vᵢ is the pass's own
+//! estimate: its direct light plus its photons at the pass's radius), and its "variance" is their
+//! spread over n. It is not the variance of the pixel mean: the passes are not identically
+//! distributed (the radius shrinks, so variance grows and bias falls
 //! pass by pass), and under `Local` they are not independent (each radius depends on the photons
 //! before). Experiments measure SPPM's variance across independent trials instead.
 
@@ -35,8 +37,8 @@ use super::config::{ProgressiveConfig, RadiusUpdate};
 use super::grid::HashGrid;
 use super::map::{Kernel, PhotonMap};
 use super::trace::{Keep, Photon, PhotonTracing, Traced, trace_photons};
-use crate::film::{Film, PixelSums};
-use crate::passes::Schedule;
+use crate::film::Film;
+use crate::passes::{PassSpec, Schedule, run_progressive_passes};
 use crate::paths::Router;
 use crate::render::{Counters, PixelLimit, PixelVariance, Technique, named};
 use crate::sink::Sink;
@@ -45,7 +47,7 @@ use glam::Vec2;
 use lightlab_core::{INV_PI, Progress, Rgb};
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
-use rayon::prelude::*;
+use std::sync::{Mutex, RwLock};
 
 /// Seed offset of the next-event-estimation stream.
 const LIGHT_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
@@ -68,7 +70,7 @@ pub struct Progressive {
 }
 
 /// What one pixel carries from pass to pass, per slot (slot 0 the full image, 1 + l layer l).
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 struct PixelState {
     radius_sq: f32,
     /// Accumulated photon count N (fractional under `Local`).
@@ -77,8 +79,14 @@ struct PixelState {
     tau: Vec<[f64; 3]>,
     /// Sum of per-pass camera-side estimates (emission, direct light).
     direct: Vec<[f64; 3]>,
-    /// Statistics of the per-pass estimates.
-    passes: Vec<PixelSums>,
+    /// The estimate after the previous pass, Eᵢ₋₁.
+    estimate: Vec<[f64; 3]>,
+}
+
+/// What every pixel of a pass shares: the pass's photons and the `Global` radius.
+struct Pass {
+    map: Option<Index>,
+    global_radius_sq: f32,
 }
 
 impl Progressive {
@@ -103,7 +111,10 @@ impl Progressive {
     }
 
     /// Renders passes until `budget` is spent, calling `on_pass(passes_done, film)` after each
-    /// and stopping early when it returns false.
+    /// and stopping early when it returns false. Each pass traces its photons (the driver's
+    /// `begin`), then every pixel its camera path and gather. The film holds, per pixel, the mean
+    /// of the increments vᵢ = i·Eᵢ − (i − 1)·Eᵢ₋₁ of the progressive estimate Eᵢ, which is Eᵢ
+    /// itself; under `Global` vᵢ is the pass's own estimate (Knaus & Zwicker's mean of passes).
     fn run(
         &self,
         scene: &Scene,
@@ -115,8 +126,8 @@ impl Progressive {
         let c = &self.config;
         let router = &self.router;
         let slots = 1 + router.layer_count();
-        let mut schedule = Schedule::new(*budget, progress, 1);
         let (width, height) = (scene.camera.width, scene.camera.height);
+        let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
         let max = c.max_bounces.unwrap_or(u32::MAX);
         let walk = CameraWalk {
             max_bounces: max,
@@ -131,150 +142,147 @@ impl Progressive {
             keep: Keep::All,
         };
         let r1 = c.radius.resolve(scene.radius);
-        let mut state = vec![
-            PixelState {
-                radius_sq: r1 * r1,
-                n: 0.0,
-                tau: vec![[0.0; 3]; slots],
-                direct: vec![[0.0; 3]; slots],
-                passes: vec![PixelSums::default(); slots],
-            };
-            (width * height) as usize
-        ];
-        let mut counters = Counters::default();
+        let pixels: Vec<Mutex<PixelState>> = (0..width as usize * height as usize)
+            .map(|_| {
+                Mutex::new(PixelState {
+                    radius_sq: r1 * r1,
+                    n: 0.0,
+                    tau: vec![[0.0; 3]; slots],
+                    direct: vec![[0.0; 3]; slots],
+                    estimate: vec![[0.0; 3]; slots],
+                })
+            })
+            .collect();
+        let pass = RwLock::new(Pass {
+            map: None,
+            global_radius_sq: r1 * r1,
+        });
         let mut photons_stored = 0u64;
-        let mut global_radius_sq = r1 * r1;
-        let mut films: Vec<Film> = (0..slots).map(|_| Film::new(width, height)).collect();
-        let mut passes = 0;
-        while schedule.next_pass(passes, 1).is_some() {
-            let pass = passes;
+        let spec = PassSpec {
+            width,
+            height,
+            slots,
+            splats: false,
+            groups: 0,
+            independent: false,
+        };
+        let mut begin = |i: u32, counters: &mut Counters| {
+            let mut pass = pass.write().expect("no pass panicked");
+            if i > 0 {
+                let i = i as f32;
+                pass.global_radius_sq *= (i + c.alpha) / (i + 1.0);
+            }
             let photons = trace_photons(
                 scene,
                 seed,
-                pass as u64 * c.photons_per_pass,
+                i as u64 * c.photons_per_pass,
                 c.photons_per_pass,
                 tracing,
-                &mut counters,
+                counters,
             )
             .photons;
             photons_stored += photons.len() as u64;
             // One radius for every query: the hash grid is faster (BENCHMARKS.md, "Photon maps").
-            let map = match c.update {
+            pass.map = Some(match c.update {
                 RadiusUpdate::Local => Index::Tree(PhotonMap::new(Traced::ungrouped(photons))),
                 RadiusUpdate::Global => {
-                    Index::Grid(HashGrid::new(&photons, global_radius_sq.sqrt()))
+                    Index::Grid(HashGrid::new(&photons, pass.global_radius_sq.sqrt()))
                 }
-            };
-            let camera_index = match self.variant {
-                Variant::Ppm => 0,
-                Variant::Sppm => pass as u64,
-            };
-            let pass_counters: Vec<Counters> = state
-                .par_chunks_mut(width as usize)
-                .enumerate()
-                .map(|(y, row)| {
-                    let mut counters = Counters::default();
-                    let mut direct = Sink::new(router, (width, height), slots, 0);
-                    let mut flux = Sink::new(router, (width, height), slots, 0);
-                    for (x, px) in row.iter_mut().enumerate() {
-                        let pixel = y as u64 * width as u64 + x as u64;
-                        let mut sampler = Independent::new();
-                        sampler.start_pixel_sample(seed, pixel, camera_index);
-                        let mut lights = Independent::new();
-                        lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, pass as u64);
-                        let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                        direct.clear();
-                        flux.clear();
-                        let vp = camera::walk(
-                            scene,
-                            &walk,
-                            film,
-                            &mut sampler,
-                            &mut lights,
-                            &mut direct,
-                            &mut counters,
-                        );
-                        let radius_sq = match c.update {
-                            RadiusUpdate::Local => px.radius_sq,
-                            RadiusUpdate::Global => global_radius_sq,
-                        };
-                        let m = match &vp {
-                            Some(vp) => {
-                                let (lo, hi) = vp.photon_bounces(c.min_bounces, max);
-                                gather(&map, vp, radius_sq, c.kernel, (lo.max(2), hi), &mut flux)
-                            }
-                            None => 0,
-                        };
-                        if !flux.values[0].is_finite() {
-                            counters.count_non_finite(Technique::Photon);
-                            continue;
-                        }
-                        let norm = (INV_PI / radius_sq) as f64;
-                        for k in 0..slots {
-                            let (d, f) = (to_f64(direct.values[k]), to_f64(flux.values[k]));
-                            px.passes[k].add([
-                                d[0] + f[0] * norm,
-                                d[1] + f[1] * norm,
-                                d[2] + f[2] * norm,
-                            ]);
-                            for ch in 0..3 {
-                                px.direct[k][ch] += d[ch];
-                            }
-                        }
-                        match c.update {
-                            RadiusUpdate::Global => {
-                                for k in 0..slots {
-                                    let f = to_f64(flux.values[k]);
-                                    for ch in 0..3 {
-                                        px.tau[k][ch] += f[ch] * norm;
-                                    }
-                                }
-                            }
-                            RadiusUpdate::Local if m > 0 => {
-                                let (n, m) = (px.n, m as f64);
-                                let n_new = n + c.alpha as f64 * m;
-                                let shrink = n_new / (n + m);
-                                for k in 0..slots {
-                                    let f = to_f64(flux.values[k]);
-                                    for ch in 0..3 {
-                                        px.tau[k][ch] = (px.tau[k][ch] + f[ch]) * shrink;
-                                    }
-                                }
-                                px.n = n_new;
-                                px.radius_sq = (px.radius_sq as f64 * shrink) as f32;
-                            }
-                            RadiusUpdate::Local => {}
-                        }
+            });
+        };
+        let out = run_progressive_passes(
+            &spec,
+            router,
+            &mut schedule,
+            on_pass,
+            &mut begin,
+            |x, y, index, sink, counters, _: &mut ()| {
+                let pass = pass.read().expect("no pass panicked");
+                let Some(map) = &pass.map else { return };
+                let pixel = y as u64 * width as u64 + x as u64;
+                let mut px = pixels[pixel as usize].lock().expect("no pixel panicked");
+                let mut sampler = Independent::new();
+                let camera_index = match self.variant {
+                    Variant::Ppm => 0,
+                    Variant::Sppm => index,
+                };
+                sampler.start_pixel_sample(seed, pixel, camera_index);
+                let mut lights = Independent::new();
+                lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, index);
+                let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                let vp = camera::walk(
+                    scene,
+                    &walk,
+                    film,
+                    &mut sampler,
+                    &mut lights,
+                    sink,
+                    counters,
+                );
+                let direct: Vec<[f64; 3]> = sink.values.iter().map(|&v| to_f64(v)).collect();
+                sink.clear();
+                let radius_sq = match c.update {
+                    RadiusUpdate::Local => px.radius_sq,
+                    RadiusUpdate::Global => pass.global_radius_sq,
+                };
+                let mut m = match &vp {
+                    Some(vp) => {
+                        let (lo, hi) = vp.photon_bounces(c.min_bounces, max);
+                        gather(map, vp, radius_sq, c.kernel, (lo.max(2), hi), sink)
                     }
-                    counters
-                })
-                .collect();
-            for pc in &pass_counters {
-                counters.merge(pc);
-            }
-            let i = pass as u64 + 1;
-            global_radius_sq *= (i as f32 + c.alpha) / (i as f32 + 1.0);
-            for (k, film) in films.iter_mut().enumerate() {
-                for (p, px) in film.pixels.iter_mut().zip(&state) {
-                    let mut out = px.passes[k];
-                    let photons = match c.update {
-                        RadiusUpdate::Global => px.tau[k].map(|t| t / i as f64),
-                        RadiusUpdate::Local => px.tau[k]
-                            .map(|t| t / (i as f64 * std::f64::consts::PI * px.radius_sq as f64)),
-                    };
+                    None => 0,
+                };
+                if !sink.values[0].is_finite() {
+                    counters.count_non_finite(Technique::Photon);
+                    sink.clear();
+                    m = 0;
+                }
+                let flux: Vec<[f64; 3]> = sink.values.iter().map(|&v| to_f64(v)).collect();
+                let norm = (INV_PI / radius_sq) as f64;
+                for k in 0..slots {
                     for ch in 0..3 {
-                        out.mean[ch] = px.direct[k][ch] / i as f64 + photons[ch];
+                        px.direct[k][ch] += direct[k][ch];
                     }
-                    *p = out;
                 }
-            }
-            passes = i as u32;
-            schedule.advance(1);
-            if !on_pass(passes, &films[0]) {
-                break;
-            }
-        }
+                match c.update {
+                    RadiusUpdate::Global => {
+                        for k in 0..slots {
+                            for ch in 0..3 {
+                                px.tau[k][ch] += flux[k][ch] * norm;
+                            }
+                        }
+                    }
+                    RadiusUpdate::Local if m > 0 => {
+                        let (n, m) = (px.n, m as f64);
+                        let n_new = n + c.alpha as f64 * m;
+                        let shrink = n_new / (n + m);
+                        for k in 0..slots {
+                            for ch in 0..3 {
+                                px.tau[k][ch] = (px.tau[k][ch] + flux[k][ch]) * shrink;
+                            }
+                        }
+                        px.n = n_new;
+                        px.radius_sq = (px.radius_sq as f64 * shrink) as f32;
+                    }
+                    RadiusUpdate::Local => {}
+                }
+                // Eᵢ and the increment i·Eᵢ − (i − 1)·Eᵢ₋₁ whose running mean the film keeps.
+                let i = index as f64 + 1.0;
+                let photon_scale = match c.update {
+                    RadiusUpdate::Global => 1.0 / i,
+                    RadiusUpdate::Local => 1.0 / (i * std::f64::consts::PI * px.radius_sq as f64),
+                };
+                for k in 0..slots {
+                    let e = [0, 1, 2].map(|ch| px.direct[k][ch] / i + px.tau[k][ch] * photon_scale);
+                    let v = [0, 1, 2].map(|ch| i * e[ch] - (i - 1.0) * px.estimate[k][ch]);
+                    px.estimate[k] = e;
+                    sink.values[k] = Rgb::new(v[0] as f32, v[1] as f32, v[2] as f32);
+                }
+            },
+        );
+        let mut films = out.films;
         let film = films.remove(0);
+        let passes = out.spp;
         let mut stats = RenderStats::new(
             self.name(),
             &film,
@@ -282,11 +290,12 @@ impl Progressive {
             seed,
             schedule.elapsed(),
             width as u64 * height as u64 * passes as u64,
-            &counters,
+            &out.counters,
             &[Technique::Camera, Technique::Photon],
             PixelVariance::NotAnEstimate(
-                "per-pass estimates at a shrinking radius are not identically distributed (and \
-                 under Local radii not independent): measure the variance across trials"
+                "the spread of per-pass increments at a shrinking radius, which are not \
+                 identically distributed (and under Local radii not independent): measure the \
+                 variance across trials"
                     .into(),
             ),
         );
