@@ -67,6 +67,7 @@ pub use render::{Counters, PixelLimit, PixelVariance, RenderOutput, RenderStats,
 pub use sink::Sink;
 
 use lightlab_core::{NoProgress, Progress};
+use lightlab_samplers::SamplerConfig;
 use lightlab_scene::Scene;
 use std::time::Instant;
 
@@ -86,16 +87,22 @@ pub trait Integrator: Send + Sync {
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput;
 
+    /// The sampler of its camera paths, if the settings choose one (`None`: independent
+    /// samples throughout).
+    fn sampler(&self) -> Option<&SamplerConfig> {
+        None
+    }
+
     /// Whether the sampler must know the number of samples before the first one (`Stratified`,
     /// `LatinHypercube`), so that a time budget cannot simply continue the sequence.
     fn needs_sample_count(&self) -> bool {
-        false
+        self.sampler().is_some_and(|s| s.needs_sample_count())
     }
 
     /// The sample count up to `n` that the sampler handles best (a time budget's calibrated count
     /// is rounded down to it).
     fn best_sample_count(&self, n: u32) -> u32 {
-        n
+        self.sampler().map_or(n, |s| s.best_count_up_to(n))
     }
 
     /// Whether the integrator, as configured, can render `scene` (an error says why not).

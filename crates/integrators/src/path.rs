@@ -224,12 +224,8 @@ impl Integrator for PathTracer {
         )
     }
 
-    fn needs_sample_count(&self) -> bool {
-        self.config.sampler.needs_sample_count()
-    }
-
-    fn best_sample_count(&self, n: u32) -> u32 {
-        self.config.sampler.best_count_up_to(n)
+    fn sampler(&self) -> Option<&SamplerConfig> {
+        Some(&self.config.sampler)
     }
 
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {

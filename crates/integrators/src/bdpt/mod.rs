@@ -202,12 +202,8 @@ impl Integrator for Bdpt {
         )
     }
 
-    fn needs_sample_count(&self) -> bool {
-        self.config.sampler.needs_sample_count()
-    }
-
-    fn best_sample_count(&self, n: u32) -> u32 {
-        self.config.sampler.best_count_up_to(n)
+    fn sampler(&self) -> Option<&SamplerConfig> {
+        Some(&self.config.sampler)
     }
 }
 

@@ -17,7 +17,7 @@ use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, from_camera};
 use glam::Vec2;
 use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_materials::LobeClass;
-use lightlab_samplers::Sampler;
+use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
 
 /// Settings of the camera walk.
@@ -86,6 +86,34 @@ impl VisiblePoint {
     pub fn class_with(&self, photon: &PathClass) -> PathClass {
         photon.then(self.eye.reversed())
     }
+}
+
+/// Seed offset of the next-event-estimation stream (independent of the camera path's stream).
+const LIGHT_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
+
+/// The camera walk of a sample of pixel (x, y) of an image `width` wide: the path's random
+/// numbers from stream (seed, pixel, `camera_index`), next-event estimation's from an independent
+/// stream at `light_index`. Returns the visible point, if any, and the path's sampler, which a
+/// final gather continues with.
+#[allow(clippy::too_many_arguments)]
+pub fn trace_pixel(
+    scene: &Scene,
+    cfg: &CameraWalk,
+    seed: u64,
+    (x, y, width): (u32, u32, u32),
+    camera_index: u64,
+    light_index: u64,
+    l: &mut Sink,
+    counters: &mut Counters,
+) -> (Option<VisiblePoint>, Independent) {
+    let pixel = y as u64 * width as u64 + x as u64;
+    let mut sampler = Independent::new();
+    sampler.start_pixel_sample(seed, pixel, camera_index);
+    let mut lights = Independent::new();
+    lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, light_index);
+    let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+    let vp = walk(scene, cfg, film, &mut sampler, &mut lights, l, counters);
+    (vp, sampler)
 }
 
 /// Traces the camera ray through raster position `film`, adds the radiance it estimates on the

@@ -42,13 +42,10 @@ use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::sink::Sink;
 use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, continue_walk};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
-use glam::Vec2;
 use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
 
-/// Seed offset of the next-event-estimation stream (independent of the camera path's stream).
-const LIGHT_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
 /// Seed offset of the caustic map's photon stream (independent of the global map's).
 const CAUSTIC_STREAM: u64 = 0x1405_7b7e_f767_814f;
 
@@ -268,18 +265,13 @@ impl Integrator for PhotonMapper {
             &mut schedule,
             on_pass,
             |x, y, index, sink, counters, _: &mut ()| {
-                let pixel = y as u64 * width as u64 + x as u64;
-                let mut sampler = Independent::new();
-                sampler.start_pixel_sample(seed, pixel, index);
-                let mut lights = Independent::new();
-                lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, index);
-                let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                let vp = camera::walk(
+                let (vp, mut sampler) = camera::trace_pixel(
                     scene,
                     &walk,
-                    film,
-                    &mut sampler,
-                    &mut lights,
+                    seed,
+                    (x, y, width),
+                    index,
+                    index,
                     sink,
                     counters,
                 );

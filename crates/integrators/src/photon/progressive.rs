@@ -43,14 +43,9 @@ use crate::paths::Router;
 use crate::render::{Counters, PixelLimit, PixelVariance, Technique, named};
 use crate::sink::Sink;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
-use glam::Vec2;
 use lightlab_core::{INV_PI, Progress, Rgb};
-use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
 use std::sync::{Mutex, RwLock};
-
-/// Seed offset of the next-event-estimation stream.
-const LIGHT_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
 
 /// Which progressive variant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -201,21 +196,17 @@ impl Progressive {
                 let Some(map) = &pass.map else { return };
                 let pixel = y as u64 * width as u64 + x as u64;
                 let mut px = pixels[pixel as usize].lock().expect("no pixel panicked");
-                let mut sampler = Independent::new();
                 let camera_index = match self.variant {
                     Variant::Ppm => 0,
                     Variant::Sppm => index,
                 };
-                sampler.start_pixel_sample(seed, pixel, camera_index);
-                let mut lights = Independent::new();
-                lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, index);
-                let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                let vp = camera::walk(
+                let (vp, _) = camera::trace_pixel(
                     scene,
                     &walk,
-                    film,
-                    &mut sampler,
-                    &mut lights,
+                    seed,
+                    (x, y, width),
+                    camera_index,
+                    index,
                     sink,
                     counters,
                 );
