@@ -28,11 +28,9 @@ use crate::passes::{PassSpec, Schedule, run_passes};
 use crate::paths::Router;
 use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::sink::Sink;
-use crate::walk::{
-    Arrival, Directions, PathVertex, Visitor, Walk, connect_to_lens, direction, from_light,
-};
+use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, connect_to_lens, from_light};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
@@ -99,7 +97,7 @@ fn connect(
     u_lens: Vec2,
     sink: &mut Sink,
     counters: &mut Counters,
-    value: impl FnOnce(&PathVertex) -> Rgb,
+    value: impl FnOnce(&PathVertex, Vec3) -> Rgb,
 ) {
     let Some(layer) = router.route(&v.class) else {
         return;
@@ -145,7 +143,7 @@ impl Visitor for LightPath<'_, '_, '_> {
                 u_lens,
                 self.sink,
                 counters,
-                |camera| origin.le(scene, camera) / origin.pdf_fwd,
+                |_, wi| origin.le_toward(scene, wi) / origin.pdf_fwd,
             );
         }
     }
@@ -170,11 +168,7 @@ impl Visitor for LightPath<'_, '_, '_> {
                 u_lens,
                 self.sink,
                 counters,
-                |camera| {
-                    v.beta
-                        * sb.eval(v.wo, direction(v, camera), TransportMode::Importance)
-                            .f
-                },
+                |_, wi| v.beta * sb.eval(v.wo, wi, TransportMode::Importance).f,
             );
         }
         true

@@ -156,7 +156,7 @@ impl Bdpt {
             if s == 1 && (!qs.on_surface() || !(qs.pdf_fwd > 0.0)) {
                 return None;
             }
-            let c = connect_to_lens(scene, qs, u_lens, counters, |v| {
+            let c = connect_to_lens(scene, qs, u_lens, counters, |v, _| {
                 if s == 1 {
                     qs.le(scene, v) / qs.pdf_fwd
                 } else {

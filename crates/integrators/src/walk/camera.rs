@@ -2,10 +2,11 @@
 //! vertex to a point sampled on the lens (light tracing; the t = 1 strategies of bidirectional
 //! path tracing, Veach 1997 §10.2).
 
-use super::vertex::{Kind, PathVertex, unoccluded};
+use super::vertex::{Kind, PathVertex};
 use crate::render::Counters;
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use lightlab_core::{Ray, Rgb};
+use lightlab_geometry::spawn_ray_to_point;
 use lightlab_scene::Scene;
 
 /// The camera vertex and ray through raster position `film` with lens sample `u_lens`.
@@ -25,29 +26,35 @@ pub(crate) struct LensConnection {
     pub contribution: Rgb,
 }
 
-/// Connects `v` to a point sampled on the lens with `u_lens`. `value(camera)` is what leaves `v`
-/// toward that point per unit of its cosine (β·f for a scattering vertex, Le/p for an
-/// emitter's origin). `None` if the lens cannot see `v`, nothing leaves toward it, or the
-/// segment is blocked.
+/// Connects `v` to a point sampled on the lens with `u_lens`. `value(camera, wi)` is what leaves
+/// `v` toward that point, in unit direction `wi`, per unit of its cosine (β·f for a scattering
+/// vertex, Le/p for an emitter's origin). `None` if the lens cannot see `v`, nothing leaves toward
+/// it, or the segment is blocked.
 #[inline]
 pub(crate) fn connect_to_lens(
     scene: &Scene,
     v: &PathVertex,
     u_lens: Vec2,
     counters: &mut Counters,
-    value: impl FnOnce(&PathVertex) -> Rgb,
+    value: impl FnOnce(&PathVertex, Vec3) -> Rgb,
 ) -> Option<LensConnection> {
     let cs = scene.camera.sample_wi(v.p, u_lens)?;
     if !(cs.pdf_w > 0.0) {
         return None;
     }
     let camera = PathVertex::new(Kind::Camera, cs.p_lens, Rgb::splat(cs.we / cs.pdf_w));
-    let contribution = value(&camera) * camera.beta * v.ns.dot(cs.wi).abs();
+    let contribution = value(&camera, cs.wi) * camera.beta * v.ns.dot(cs.wi).abs();
     if contribution.is_black() {
         return None;
     }
     counters.rays += 1;
-    if !unoccluded(scene, v, &camera) {
+    // The lens point is on no surface: the shadow ray leaves v's surface (if any) for it.
+    let ray = if v.on_surface() {
+        spawn_ray_to_point(v.p, v.p_error, v.ng, cs.p_lens)
+    } else {
+        Ray::segment(v.p, cs.p_lens - v.p, 1.0 - 1e-4)
+    };
+    if scene.occluded(&ray) {
         return None;
     }
     Some(LensConnection {

@@ -22,7 +22,7 @@ use camera::camera_ray;
 pub(crate) use camera::connect_to_lens;
 pub(crate) use emit::emit;
 pub(crate) use scatter::Directions;
-pub(crate) use vertex::{Kind, PathVertex, direction, geometry_term, unoccluded};
+pub(crate) use vertex::{Kind, PathVertex, geometry_term, unoccluded};
 
 use crate::paths::PathClass;
 use crate::render::{Counters, Technique};
