@@ -41,10 +41,10 @@
 pub mod bdpt;
 mod config;
 mod film;
-pub mod light;
+mod light;
 mod nee;
 mod passes;
-pub mod path;
+mod path;
 pub mod paths;
 pub mod photon;
 mod provenance;

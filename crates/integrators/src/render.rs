@@ -153,7 +153,7 @@ pub struct RenderOutput {
 }
 
 /// The estimators' techniques whose NaN or infinite values are counted (and kept out of the film),
-/// named in one place. An integrator reports the ones it uses (see [`RenderStats::new`]).
+/// named in one place. An integrator reports the ones it uses (see `RenderStats::new`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Technique {
     /// Emission found by a camera path (a BSDF-sampled ray or the camera ray hitting an emitter).

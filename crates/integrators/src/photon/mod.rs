@@ -7,10 +7,10 @@
 //! completes a path of k + d − 1 scattering vertices, and only photons whose completed path lies
 //! within `min_bounces ..= max_bounces` are used.
 
-pub mod camera;
+pub(crate) mod camera;
 pub mod config;
 pub mod grid;
 pub mod map;
-pub mod pm;
-pub mod progressive;
+pub(crate) mod pm;
+pub(crate) mod progressive;
 pub mod trace;

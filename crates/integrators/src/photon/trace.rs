@@ -104,7 +104,7 @@ pub struct PhotonTracing {
 }
 
 /// The start of a photon path: the emission ray and its flux (before division by the number of
-/// paths), as [`walk::emit`] samples it. `None` when the scene does not emit or the sample has
+/// paths), as the shared walk's `emit` samples it. `None` when the scene does not emit or the sample has
 /// zero density.
 pub fn emit(scene: &Scene, sampler: &mut Independent) -> Option<(Ray, Rgb)> {
     walk::emit(scene, sampler).map(|e| (e.ray, e.beta))
