@@ -54,10 +54,9 @@ mod tests {
         });
         assert!(x != 0 && wall >= 0.3);
         // Busy for 0.3 s on one thread: at least 0.2 s of CPU even on a loaded machine's tick count.
-        assert!(
-            cpu > 0.2 && cpu < wall + 0.1,
-            "cpu {cpu} s for {wall} s of busy wall time"
-        );
+        // No upper bound: the process's CPU time includes the tests the harness runs beside this
+        // one on other threads (a run with a chi-square test alongside measured 0.51 s).
+        assert!(cpu > 0.2, "cpu {cpu} s for {wall} s of busy wall time");
     }
 
     #[test]
