@@ -210,7 +210,13 @@ impl Progressive {
                     sink,
                     counters,
                 );
-                let direct: Vec<[f64; 3]> = sink.values.iter().map(|&v| to_f64(v)).collect();
+                // The camera side's estimate joins the pixel's sum; the sink then gathers flux.
+                for (sum, &d) in px.direct.iter_mut().zip(&sink.values) {
+                    let d = to_f64(d);
+                    for ch in 0..3 {
+                        sum[ch] += d[ch];
+                    }
+                }
                 sink.clear();
                 let radius_sq = match c.update {
                     RadiusUpdate::Local => px.radius_sq,
@@ -228,18 +234,13 @@ impl Progressive {
                     sink.clear();
                     m = 0;
                 }
-                let flux: Vec<[f64; 3]> = sink.values.iter().map(|&v| to_f64(v)).collect();
+                let flux = |k: usize| to_f64(sink.values[k]);
                 let norm = (INV_PI / radius_sq) as f64;
-                for k in 0..slots {
-                    for ch in 0..3 {
-                        px.direct[k][ch] += direct[k][ch];
-                    }
-                }
                 match c.update {
                     RadiusUpdate::Global => {
                         for k in 0..slots {
                             for ch in 0..3 {
-                                px.tau[k][ch] += flux[k][ch] * norm;
+                                px.tau[k][ch] += flux(k)[ch] * norm;
                             }
                         }
                     }
@@ -249,7 +250,7 @@ impl Progressive {
                         let shrink = n_new / (n + m);
                         for k in 0..slots {
                             for ch in 0..3 {
-                                px.tau[k][ch] = (px.tau[k][ch] + flux[k][ch]) * shrink;
+                                px.tau[k][ch] = (px.tau[k][ch] + flux(k)[ch]) * shrink;
                             }
                         }
                         px.n = n_new;

@@ -293,7 +293,8 @@ fn scatter<S: Sampler, V: Visitor>(
     }
     let arrival = Arrival {
         from: v.p,
-        pdf_w: if s.delta {
+        // After a delta lobe only bidirectional methods read the density.
+        pdf_w: if s.delta && V::DENSITIES {
             vertex::delta_densities(&s, v.wo, v.ns).0
         } else {
             s.pdf
