@@ -136,94 +136,133 @@ impl Bdpt {
         u_lens: Vec2,
         counters: &mut Counters,
     ) -> Option<(Rgb, f32, Option<Vec2>)> {
-        // An escaped camera path can only be completed by s = 0.
-        if t > 1 && s != 0 && camera[t - 1].infinite {
-            return None;
-        }
-        let mut sampled = None;
-        let mut raster = None;
-        let l = if s == 0 {
-            let pt = &camera[t - 1];
-            pt.light()?;
-            pt.beta * pt.le(scene, &camera[t - 2])
-        } else if t == 1 {
-            let qs = &light[s - 1];
-            if !qs.connectible(scene) || qs.infinite {
-                return None;
-            }
-            // s = t = 1: the point on the light seen directly through the lens (light tracing's
-            // emission connection); a point or spot light has no area to be seen.
-            if s == 1 && (!qs.on_surface() || !(qs.pdf_fwd > 0.0)) {
-                return None;
-            }
-            let c = connect_to_lens(scene, qs, u_lens, counters, |v, _| {
-                if s == 1 {
-                    qs.le(scene, v) / qs.pdf_fwd
-                } else {
-                    qs.beta * qs.f(&light[s - 2], v, TransportMode::Importance)
-                }
-            })?;
-            raster = Some(c.raster);
-            sampled = Some(c.camera);
-            c.contribution
-        } else if s == 1 {
-            let pt = &camera[t - 1];
-            if !pt.connectible(scene) {
-                return None;
-            }
-            let (light_index, pmf) = scene.sample_light(u_light)?;
-            let lt = &scene.lights[light_index as usize];
-            let ls = lt.sample_li(scene.shapes(), pt.p, u_point)?;
-            if !(ls.pdf_w > 0.0) || ls.li.is_black() {
-                return None;
-            }
-            let mut v = PathVertex::new(
-                Kind::Light { light: light_index },
-                ls.p,
-                ls.li / (ls.pdf_w * pmf),
-            );
-            v.p_error = ls.p_error;
-            if ls.infinite {
-                v.infinite = true;
-                v.ng = -ls.wi;
-            } else if !ls.delta {
-                v.ng = ls.n;
-                v.ns = ls.n;
-            }
-            v.pdf_fwd = v.pdf_light_origin(scene);
-            let f = pt.f(&camera[t - 2], &v, TransportMode::Radiance);
-            let l = pt.beta * f * v.beta * pt.ns.dot(ls.wi).abs();
-            sampled = Some(v);
-            if l.is_black() {
-                return None;
-            }
-            counters.rays += 1;
-            if !unoccluded(scene, pt, &v) {
-                return None;
-            }
-            l
-        } else {
-            let (qs, pt) = (&light[s - 1], &camera[t - 1]);
-            if !qs.connectible(scene) || !pt.connectible(scene) || qs.infinite {
-                return None;
-            }
-            // s ≥ 2: qs is a surface vertex.
-            let fq = qs.f(&light[s - 2], pt, TransportMode::Importance);
-            let l = qs.beta * fq * pt.f(&camera[t - 2], qs, TransportMode::Radiance) * pt.beta;
-            if l.is_black() {
-                return None;
-            }
-            let l = l * geometry_term(qs, pt);
-            if l.is_black() {
-                return None;
-            }
-            counters.rays += 1;
-            if !unoccluded(scene, qs, pt) {
-                return None;
-            }
-            l
-        };
-        let w = Self::mis_weight(scene, light, camera, sampled, s, t, self.config.mis);
-        Some((l, w, raster))
+        let c = connection(
+            scene, light, camera, s, t, u_light, u_point, u_lens, counters,
+        )?;
+        let w = Self::mis_weight(scene, light, camera, c.sampled, s, t, self.config.mis);
+        Some((c.unweighted, w, c.raster))
     }
 }
+
+/// What connecting subpaths by strategy (s, t) found, before any MIS weight.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Connected {
+    /// The strategy's unweighted estimate.
+    pub unweighted: Rgb,
+    /// Where a t = 1 contribution lands; `None` for the sample's own pixel.
+    pub raster: Option<Vec2>,
+    /// The endpoint the strategy sampled anew: the light point for s = 1 with t ≥ 2, the lens
+    /// point for t = 1.
+    pub sampled: Option<PathVertex>,
+}
+
+/// Strategy (s, t) of subpaths `light` and `camera` (Veach 1997 §10.2): s = 0 the camera subpath
+/// ends on an emitter, s = 1 a light point sampled from the camera vertex (`u_light`, `u_point`),
+/// t = 1 the light vertex connected to a lens point (`u_lens`), otherwise the two end vertices
+/// joined by a shadow ray. `None` when the strategy cannot carry light.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn connection(
+    scene: &Scene,
+    light: &[PathVertex],
+    camera: &[PathVertex],
+    s: usize,
+    t: usize,
+    u_light: f32,
+    u_point: Vec2,
+    u_lens: Vec2,
+    counters: &mut Counters,
+) -> Option<Connected> {
+    // An escaped camera path can only be completed by s = 0.
+    if t > 1 && s != 0 && camera[t - 1].infinite {
+        return None;
+    }
+    let mut sampled = None;
+    let mut raster = None;
+    let l = if s == 0 {
+        let pt = &camera[t - 1];
+        pt.light()?;
+        pt.beta * pt.le(scene, &camera[t - 2])
+    } else if t == 1 {
+        let qs = &light[s - 1];
+        if !qs.connectible(scene) || qs.infinite {
+            return None;
+        }
+        // s = t = 1: the point on the light seen directly through the lens (light tracing's
+        // emission connection); a point or spot light has no area to be seen.
+        if s == 1 && (!qs.on_surface() || !(qs.pdf_fwd > 0.0)) {
+            return None;
+        }
+        let c = connect_to_lens(scene, qs, u_lens, counters, |v, _| {
+            if s == 1 {
+                qs.le(scene, v) / qs.pdf_fwd
+            } else {
+                qs.beta * qs.f(&light[s - 2], v, TransportMode::Importance)
+            }
+        })?;
+        raster = Some(c.raster);
+        sampled = Some(c.camera);
+        c.contribution
+    } else if s == 1 {
+        let pt = &camera[t - 1];
+        if !pt.connectible(scene) {
+            return None;
+        }
+        let (light_index, pmf) = scene.sample_light(u_light)?;
+        let lt = &scene.lights[light_index as usize];
+        let ls = lt.sample_li(scene.shapes(), pt.p, u_point)?;
+        if !(ls.pdf_w > 0.0) || ls.li.is_black() {
+            return None;
+        }
+        let mut v = PathVertex::new(
+            Kind::Light { light: light_index },
+            ls.p,
+            ls.li / (ls.pdf_w * pmf),
+        );
+        v.p_error = ls.p_error;
+        if ls.infinite {
+            v.infinite = true;
+            v.ng = -ls.wi;
+        } else if !ls.delta {
+            v.ng = ls.n;
+            v.ns = ls.n;
+        }
+        v.pdf_fwd = v.pdf_light_origin(scene);
+        let f = pt.f(&camera[t - 2], &v, TransportMode::Radiance);
+        let l = pt.beta * f * v.beta * pt.ns.dot(ls.wi).abs();
+        sampled = Some(v);
+        if l.is_black() {
+            return None;
+        }
+        counters.rays += 1;
+        if !unoccluded(scene, pt, &v) {
+            return None;
+        }
+        l
+    } else {
+        let (qs, pt) = (&light[s - 1], &camera[t - 1]);
+        if !qs.connectible(scene) || !pt.connectible(scene) || qs.infinite {
+            return None;
+        }
+        // s ≥ 2: qs is a surface vertex.
+        let fq = qs.f(&light[s - 2], pt, TransportMode::Importance);
+        let l = qs.beta * fq * pt.f(&camera[t - 2], qs, TransportMode::Radiance) * pt.beta;
+        if l.is_black() {
+            return None;
+        }
+        let l = l * geometry_term(qs, pt);
+        if l.is_black() {
+            return None;
+        }
+        counters.rays += 1;
+        if !unoccluded(scene, qs, pt) {
+            return None;
+        }
+        l
+    };
+    Some(Connected {
+        unweighted: l,
+        raster,
+        sampled,
+    })
+}
+

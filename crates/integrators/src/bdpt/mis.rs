@@ -38,32 +38,18 @@ impl Bdpt {
         if s > 0 {
             lv[s - 1].delta = false;
         }
-        // Densities of the connection vertices and their predecessors from the other side.
+        let rev = reverse_densities(scene, &lv, &cv, s, t);
         if t > 0 {
-            let pt = cv[t - 1];
-            cv[t - 1].pdf_rev = if s > 0 {
-                let qs_minus = if s > 1 { Some(lv[s - 2]) } else { None };
-                lv[s - 1].pdf(scene, qs_minus.as_ref(), &pt)
-            } else {
-                pt.pdf_light_origin(scene)
-            };
+            cv[t - 1].pdf_rev = rev.camera;
         }
         if t > 1 {
-            let (pt, pt_minus) = (cv[t - 1], cv[t - 2]);
-            cv[t - 2].pdf_rev = if s > 0 {
-                pt.pdf(scene, Some(&lv[s - 1]), &pt_minus)
-            } else {
-                pt.pdf_light(scene, &pt_minus)
-            };
+            cv[t - 2].pdf_rev = rev.camera_prev;
         }
         if s > 0 {
-            let qs = lv[s - 1];
-            let pt_minus = if t > 1 { Some(cv[t - 2]) } else { None };
-            lv[s - 1].pdf_rev = cv[t - 1].pdf(scene, pt_minus.as_ref(), &qs);
+            lv[s - 1].pdf_rev = rev.light;
         }
         if s > 1 {
-            let (qs, qs_minus) = (lv[s - 1], lv[s - 2]);
-            lv[s - 2].pdf_rev = qs.pdf(scene, Some(&cv[t - 1]), &qs_minus);
+            lv[s - 2].pdf_rev = rev.light_prev;
         }
         let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
         // Each other strategy i enters with rᵢ = pᵢ / p_s: the balance heuristic sums rᵢ, the power
@@ -97,6 +83,47 @@ impl Bdpt {
             }
         }
         1.0 / (1.0 + sum)
+    }
+}
+
+/// The densities with which the other side of connection (s, t) generates its end vertices and
+/// their predecessors (area measure; zero where there is no such vertex).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Reverse {
+    /// y_{s−1} from z_{t−1} (arrived from z_{t−2}).
+    pub light: f32,
+    /// y_{s−2} from y_{s−1} (arrived from z_{t−1}).
+    pub light_prev: f32,
+    /// z_{t−1} from y_{s−1} (arrived from y_{s−2}); for s = 0 as a light subpath's origin.
+    pub camera: f32,
+    /// z_{t−2} from z_{t−1} (arrived from y_{s−1}); for s = 0 as emitted by z_{t−1}.
+    pub camera_prev: f32,
+}
+
+/// The [`Reverse`] densities of connection (s, t) of `light` and `camera`, whose end vertices are
+/// the ones the strategy used (the sampled endpoint already in place).
+pub(crate) fn reverse_densities(
+    scene: &Scene,
+    light: &[PathVertex],
+    camera: &[PathVertex],
+    s: usize,
+    t: usize,
+) -> Reverse {
+    let pt = &camera[t - 1];
+    let pt_minus = t.checked_sub(2).map(|i| &camera[i]);
+    let Some(qs) = s.checked_sub(1).map(|i| &light[i]) else {
+        return Reverse {
+            camera: pt.pdf_light_origin(scene),
+            camera_prev: pt_minus.map_or(0.0, |p| pt.pdf_light(scene, p)),
+            ..Reverse::default()
+        };
+    };
+    let qs_minus = s.checked_sub(2).map(|i| &light[i]);
+    Reverse {
+        light: pt.pdf(scene, pt_minus, qs),
+        light_prev: qs_minus.map_or(0.0, |q| qs.pdf(scene, Some(pt), q)),
+        camera: qs.pdf(scene, qs_minus, pt),
+        camera_prev: pt_minus.map_or(0.0, |p| pt.pdf(scene, Some(qs), p)),
     }
 }
 

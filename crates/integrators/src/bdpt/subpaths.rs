@@ -3,7 +3,7 @@
 
 use super::Bdpt;
 use crate::render::Counters;
-use crate::walk::{Arrival, Kind, PathVertex, Visitor, from_camera, from_light};
+use crate::walk::{Arrival, Kind, PathVertex, Visitor, Walk, from_camera, from_light};
 use glam::Vec2;
 use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_materials::BsdfSample;
@@ -23,12 +23,7 @@ impl Bdpt {
         counters: &mut Counters,
     ) {
         let walk = self.walk(TransportMode::Radiance, max_depth);
-        let mut subpath = Subpath {
-            scene,
-            camera: true,
-            path,
-        };
-        from_camera(scene, &walk, film, sampler, &mut subpath, counters);
+        camera_subpath(scene, &walk, film, sampler, path, counters);
     }
 
     /// The light subpath (pbrt-v4 `GenerateLightSubpath`): its origin on a light and up to
@@ -42,13 +37,44 @@ impl Bdpt {
         counters: &mut Counters,
     ) {
         let walk = self.walk(TransportMode::Importance, max_depth);
-        let mut subpath = Subpath {
-            scene,
-            camera: false,
-            path,
-        };
-        from_light(scene, &walk, sampler, &mut subpath, counters);
+        light_subpath(scene, &walk, sampler, path, counters);
     }
+}
+
+/// Appends the camera subpath through raster position `film`, walked as `walk` says (radiance),
+/// to `path`: the camera vertex, its surface vertices, and a vertex at infinity if it escapes
+/// to an environment.
+pub(crate) fn camera_subpath<S: Sampler>(
+    scene: &Scene,
+    walk: &Walk,
+    film: Vec2,
+    sampler: &mut S,
+    path: &mut Vec<PathVertex>,
+    counters: &mut Counters,
+) {
+    let mut subpath = Subpath {
+        scene,
+        camera: true,
+        path,
+    };
+    from_camera(scene, walk, film, sampler, &mut subpath, counters);
+}
+
+/// Appends a light subpath, walked as `walk` says (importance), to `path`: its origin on a
+/// light and its surface vertices.
+pub(crate) fn light_subpath<S: Sampler>(
+    scene: &Scene,
+    walk: &Walk,
+    sampler: &mut S,
+    path: &mut Vec<PathVertex>,
+    counters: &mut Counters,
+) {
+    let mut subpath = Subpath {
+        scene,
+        camera: false,
+        path,
+    };
+    from_light(scene, walk, sampler, &mut subpath, counters);
 }
 
 /// A subpath stored vertex by vertex, with the reverse density of each vertex set once the walk
