@@ -13,6 +13,7 @@ use crate::paths::{Layers, Router};
 use crate::photon::config::{PhotonMapConfig, ProgressiveConfig};
 use crate::photon::pm::PhotonMapper;
 use crate::photon::progressive::{Progressive, Variant};
+use crate::vcm::{Vcm, VcmConfig};
 use serde::{Deserialize, Serialize};
 
 /// Declares [`IntegratorConfig`], one variant per integrator with its settings and how it is
@@ -72,6 +73,9 @@ integrators! {
     /// Stochastic progressive photon mapping (Hachisuka & Jensen 2009): new visible points every
     /// pass; samples per pixel count passes.
     Sppm(ProgressiveConfig) => |c| Progressive::new(c, Variant::Sppm),
+    /// Vertex connection and merging (Georgiev et al. 2012): BDPT's connections and photon
+    /// mapping's merges under one MIS, a shrinking merge radius; samples per pixel count passes.
+    Vcm(VcmConfig) => Vcm::new,
 }
 
 /// What every settings struct offers the variant-independent code ([`settings!`] implements it).

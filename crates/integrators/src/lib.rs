@@ -50,6 +50,7 @@ pub mod photon;
 mod provenance;
 mod render;
 mod sink;
+pub mod vcm;
 mod walk;
 
 pub use bdpt::{BdptConfig, Mis};
@@ -65,6 +66,7 @@ pub use photon::map::Kernel;
 pub use provenance::Outlier;
 pub use render::{Counters, PixelLimit, PixelVariance, RenderOutput, RenderStats, Technique};
 pub use sink::Sink;
+pub use vcm::{Heuristic, Variant as VcmVariant, Vcm, VcmConfig};
 
 use lightlab_core::{NoProgress, Progress};
 use lightlab_samplers::SamplerConfig;

@@ -168,12 +168,14 @@ pub enum Technique {
     Camera,
     /// A photon's flux, or a photon-map estimate.
     Photon,
+    /// A VCM merge of a camera vertex with a light vertex.
+    Merge,
     /// A BSDF sample whose weight f·|cos|/p was not finite (the walk ends the path there).
     Scattering,
 }
 
 impl Technique {
-    const COUNT: usize = 7;
+    const COUNT: usize = 8;
 
     /// Its name in statistics and results (`non_finite` entries).
     pub fn name(self) -> &'static str {
@@ -184,6 +186,7 @@ impl Technique {
             Technique::Connection => "connection",
             Technique::Camera => "camera",
             Technique::Photon => "photon",
+            Technique::Merge => "merge",
             Technique::Scattering => "scattering",
         }
     }

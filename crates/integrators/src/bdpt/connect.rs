@@ -12,7 +12,7 @@ use lightlab_scene::Scene;
 
 /// The class of the path strategy (s, t) joins, light first (for s = 0 the last camera vertex is
 /// the emitter, not a scattering vertex).
-pub(super) fn joined_class(
+pub(crate) fn joined_class(
     light: &[PathVertex],
     camera: &[PathVertex],
     s: usize,
@@ -265,4 +265,3 @@ pub(crate) fn connection(
         sampled,
     })
 }
-

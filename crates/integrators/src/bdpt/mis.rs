@@ -10,7 +10,7 @@ use lightlab_scene::Scene;
 impl Bdpt {
     /// The MIS weight of strategy (s, t) (pbrt-v4 `MISWeight`, balance heuristic). `sampled` replaces
     /// the endpoint that strategy sampled anew (the light point for s = 1, the lens point for t = 1).
-    pub(super) fn mis_weight(
+    pub(crate) fn mis_weight(
         scene: &Scene,
         light: &[PathVertex],
         camera: &[PathVertex],

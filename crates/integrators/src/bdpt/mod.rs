@@ -37,9 +37,12 @@ mod mis;
 mod provenance;
 mod subpaths;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub use connect::Contribution;
+pub(crate) use connect::{connection, joined_class};
+pub(crate) use mis::{Reverse, reverse_densities};
+pub(crate) use subpaths::{camera_subpath, light_subpath};
 
 use crate::config::{ConfigError, Validate, invalid, settings};
 use crate::film::Film;

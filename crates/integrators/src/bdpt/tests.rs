@@ -6,7 +6,7 @@ use glam::Vec2;
 use lightlab_core::Rgb;
 use lightlab_geometry::NO_LIGHT;
 
-fn scene(name: &str) -> Scene {
+pub(crate) fn scene(name: &str) -> Scene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../scenes")
         .join(name);
@@ -16,7 +16,11 @@ fn scene(name: &str) -> Scene {
 /// The vertices of a full path x₀ (on a light) … x_{n−1} (the camera) split as s light and
 /// t = n − s camera vertices, with every density recomputed from the geometry, as both subpath
 /// generators would have stored them.
-fn split(scene: &Scene, z: &[PathVertex], s: usize) -> (Vec<PathVertex>, Vec<PathVertex>) {
+pub(crate) fn split(
+    scene: &Scene,
+    z: &[PathVertex],
+    s: usize,
+) -> (Vec<PathVertex>, Vec<PathVertex>) {
     let n = z.len();
     let t = n - s;
     let mut camera: Vec<PathVertex> = z[..t].to_vec();
@@ -52,7 +56,7 @@ fn split(scene: &Scene, z: &[PathVertex], s: usize) -> (Vec<PathVertex>, Vec<Pat
 
 /// Up to 300 camera paths, traced with `seed`, that end on an emitter they receive light from
 /// (at least 50 of them): a camera vertex, 1–7 scattering vertices and the emitter.
-fn camera_paths_to_lights(scene: &Scene, seed: u64) -> Vec<Vec<PathVertex>> {
+pub(crate) fn camera_paths_to_lights(scene: &Scene, seed: u64) -> Vec<Vec<PathVertex>> {
     let bdpt = bdpt(6);
     let mut counters = Counters::default();
     let mut out = Vec::new();
@@ -185,7 +189,7 @@ impl Sampler for Script {
     }
 }
 
-fn bdpt(max_bounces: u32) -> Bdpt {
+pub(crate) fn bdpt(max_bounces: u32) -> Bdpt {
     Bdpt::new(BdptConfig {
         max_bounces: Some(max_bounces),
         russian_roulette: None,
@@ -199,7 +203,11 @@ fn bdpt(max_bounces: u32) -> Bdpt {
 /// through x_{n−1}'s raster position, at every diffuse vertex the inverse of the cosine warp
 /// toward the next vertex, at every delta vertex the lobe the light path took. `None` unless
 /// the walk retraces every vertex.
-fn camera_through(bdpt: &Bdpt, scene: &Scene, light: &[PathVertex]) -> Option<Vec<PathVertex>> {
+pub(crate) fn camera_through(
+    bdpt: &Bdpt,
+    scene: &Scene,
+    light: &[PathVertex],
+) -> Option<Vec<PathVertex>> {
     use lightlab_samplers::warp::cosine_hemisphere_to_square;
     let n = light.len();
     let raster = scene
@@ -263,7 +271,7 @@ fn weight_sum(scene: &Scene, light: &[PathVertex], camera: &[PathVertex], heuris
 
 /// Light subpaths of `scene` traced by production code (seeds 0, 1, …) whose last vertex the
 /// camera sees and which `keep` accepts, each with the camera subpath retracing it.
-fn production_paths(
+pub(crate) fn production_paths(
     scene: &Scene,
     bdpt: &Bdpt,
     vertices: u32,
@@ -312,7 +320,7 @@ fn production_paths(
 /// One refractive interface: a light under a diffuse ceiling above a flat glass surface
 /// (η = 1.5 below it), a diffuse floor in the glass and the camera in the glass too — the
 /// path `L D S D E` crosses the interface once.
-fn flat_interface(material: &str) -> Scene {
+pub(crate) fn flat_interface(material: &str) -> Scene {
     let text = format!(
         "Scene(camera: Camera(eye: (0, -0.4, 1.6), target: (0, -1, 0), fov: 50, resolution: (32, 32)),
            materials: {{ \"white\": Diffuse(albedo: (0.8, 0.8, 0.8)), \"black\": Diffuse(albedo: (0, 0, 0)),

@@ -23,7 +23,7 @@ impl Length {
         }
     }
 
-    fn check(self, what: &str) -> Result<(), String> {
+    pub(crate) fn check(self, what: &str) -> Result<(), String> {
         let v = match self {
             Length::Absolute(v) | Length::Relative(v) => v,
         };

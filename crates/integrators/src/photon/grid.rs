@@ -2,15 +2,29 @@
 //! hash; the structure SmallVCM and pbrt-v4's SPPM use): cells of edge 2r, so the photons within r
 //! of a point lie in the 2 × 2 × 2 cells nearest it. Faster to build and query than the kd-tree
 //! when one radius serves every query (BENCHMARKS.md, "Photon maps"); SPPM uses it with the
-//! `Global` radius schedule.
+//! `Global` radius schedule, VCM with the light vertices it merges with.
 
 use super::trace::Photon;
 use glam::{IVec3, Vec3};
 
-/// Photons bucketed by a spatial hash of cells of edge 2r, for gathers of radius r.
-pub struct HashGrid {
-    /// Photons sorted by cell hash.
-    photons: Vec<Photon>,
+/// Something with a place in space, to be found by a grid.
+pub trait Located: Copy {
+    /// Where it is.
+    fn position(&self) -> Vec3;
+}
+
+impl Located for Photon {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.p
+    }
+}
+
+/// Items (photons by default) bucketed by a spatial hash of cells of edge 2r, for gathers of
+/// radius r.
+pub struct HashGrid<T: Located = Photon> {
+    /// Items sorted by cell hash.
+    photons: Vec<T>,
     /// `cell_ends[h]`: one past the last photon of hash bucket h (prefix sums of the counts).
     cell_ends: Vec<u32>,
     origin: Vec3,
@@ -18,12 +32,12 @@ pub struct HashGrid {
     radius_sq: f32,
 }
 
-impl HashGrid {
-    /// Builds a grid for gathering within `radius` (> 0) of query points.
-    pub fn new(photons: &[Photon], radius: f32) -> HashGrid {
+impl<T: Located> HashGrid<T> {
+    /// Builds a grid of `photons` for gathering within `radius` (> 0) of query points.
+    pub fn new(photons: &[T], radius: f32) -> HashGrid<T> {
         let origin = photons
             .iter()
-            .fold(Vec3::splat(f32::INFINITY), |m, p| m.min(p.p));
+            .fold(Vec3::splat(f32::INFINITY), |m, p| m.min(p.position()));
         let mut grid = HashGrid {
             photons: Vec::new(),
             cell_ends: vec![0; photons.len().max(1)],
@@ -34,7 +48,7 @@ impl HashGrid {
         // Counting sort by bucket.
         let keys: Vec<u32> = photons
             .iter()
-            .map(|p| grid.bucket(grid.cell_of(p.p)) as u32)
+            .map(|p| grid.bucket(grid.cell_of(p.position())) as u32)
             .collect();
         for &k in &keys {
             grid.cell_ends[k as usize] += 1;
@@ -52,6 +66,16 @@ impl HashGrid {
         }
         grid.photons = sorted.into_iter().map(|p| p.expect("filled")).collect();
         grid
+    }
+
+    /// Number of items.
+    pub fn len(&self) -> usize {
+        self.photons.len()
+    }
+
+    /// Whether it holds no item.
+    pub fn is_empty(&self) -> bool {
+        self.photons.is_empty()
     }
 
     #[inline]
@@ -72,9 +96,9 @@ impl HashGrid {
             % self.cell_ends.len()
     }
 
-    /// Calls `visit(photon, d²)` for every photon within the grid's radius of `p`.
+    /// Calls `visit(item, d²)` for every item within the grid's radius of `p`.
     #[inline]
-    pub fn within(&self, p: Vec3, mut visit: impl FnMut(&Photon, f32)) {
+    pub fn within(&self, p: Vec3, mut visit: impl FnMut(&T, f32)) {
         if self.photons.is_empty() {
             return;
         }
@@ -95,7 +119,7 @@ impl HashGrid {
             seen[n] = b;
             let start = if b == 0 { 0 } else { self.cell_ends[b - 1] };
             for ph in &self.photons[start as usize..self.cell_ends[b] as usize] {
-                let d2 = ph.p.distance_squared(p);
+                let d2 = ph.position().distance_squared(p);
                 if d2 <= self.radius_sq {
                     visit(ph, d2);
                 }

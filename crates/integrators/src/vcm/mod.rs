@@ -1,0 +1,587 @@
+//! Vertex connection and merging (VCM; Georgiev, Křivánek, Davidovič & Slusallek 2012, "Light
+//! transport simulation with vertex connection and merging"; the same estimator as Hachisuka,
+//! Pantaleoni & Jensen 2012, "A path space extension for robust light transport simulation"):
+//! bidirectional path tracing's connections and photon mapping's density estimates ("merges")
+//! combined by one multiple importance sampling.
+//!
+//! Each pass (Georgiev et al., Alg. 1) traces one light subpath per pixel and stores it once
+//! (`pass`): its vertices are the connection vertices of that pixel's camera path and, the
+//! non-delta surface ones, the photons every camera path of the pass merges with. Then each pixel
+//! traces a camera subpath and forms every connection (s, t) with its light subpath as BDPT does
+//! (`bdpt::connection`: s = 0 emission found, s = 1 next-event estimation, t = 1 the light vertex
+//! splatted through the lens, s, t ≥ 2 a shadow ray), and at every non-delta camera vertex
+//! merges with the light vertices of all light paths within the pass's radius (`merge`). The MIS
+//! weights come from two numbers per subpath vertex, computed recursively along each subpath
+//! (`mis`; Georgiev 2012, the technical report's dVCM/dVC), so each technique costs O(1).
+//!
+//! Radius schedule: pass i (1-based) merges within r_i = r₁·i^((α−1)/2) (Georgiev et al.,
+//! eq. 15, after Knaus & Zwicker 2011): the merges' bias falls as r_i² ∝ i^(α−1) while their
+//! variance grows as i^(1−α), and the image is the mean of the passes' estimates. α = 1 keeps the
+//! radius (a biased, not consistent, estimator); SmallVCM's default is α = 0.75. Connections are
+//! unbiased at any radius, and where they carry a path well the weights hand it to them: MSE
+//! falls as O(1/N) for what connections render and more slowly for what only merges can (Georgiev
+//! et al., §5: `L S+ D S+ E`, caustics seen in mirrors).
+//!
+//! Variants: `Vcm` (everything), `Vc` (connections only: BDPT with its balance or power
+//! heuristic, one light path per camera path — the same image as `Bdpt` in expectation) and
+//! `Bpm` (merges only, with camera paths that hit lights: bidirectional photon mapping, Vorba
+//! 2011), the techniques left out simply missing from the weights.
+//!
+//! Sample dimensions per pass and pixel: the camera subpath from the camera sampler (pixel 2,
+//! lens 2, per vertex lobe 1, direction 2, roulette 1), the connection samples from a second
+//! stream (per camera vertex: light 1, light point 2, lens 2), and light path p from a stream
+//! keyed by (p, pass) alone.
+
+mod merge;
+mod mis;
+mod pass;
+#[cfg(test)]
+mod tests;
+
+pub use mis::Heuristic;
+
+use crate::bdpt::{Reverse, camera_subpath, connection, joined_class, reverse_densities};
+use crate::config::{ConfigError, Validate, invalid, settings};
+use crate::film::Film;
+use crate::passes::{PassSpec, Schedule, run_progressive_passes};
+use crate::paths::{PathClass, Router};
+use crate::photon::config::{Length, check_radius};
+use crate::render::{Counters, PixelVariance, Technique};
+use crate::walk::{Directions, PathVertex, Walk};
+use crate::{Budget, Integrator, RenderOutput, RenderStats};
+use glam::Vec2;
+use lightlab_core::{Progress, Rgb, TransportMode};
+use lightlab_samplers::{Independent, Sampler, SamplerConfig, SamplerVisitor};
+use lightlab_scene::Scene;
+use mis::{Quantities, Techniques};
+use pass::LightPass;
+use serde::{Deserialize, Serialize};
+use std::sync::RwLock;
+
+settings! {
+    /// Settings of vertex connection and merging: `Vcm(radius: Relative(0.005), alpha: 0.75)`;
+    /// every field optional. The budget's samples per pixel are passes, each one light subpath
+    /// and one camera subpath per pixel.
+    VcmConfig as "Vcm" {
+        /// Sampler of the camera subpaths (light subpaths and connections use independent
+        /// samples). Default `Independent`.
+        sampler: SamplerConfig = SamplerConfig::Independent,
+        /// Techniques: `Vcm` (connections and merges), `Vc` (connections only, i.e. BDPT) or `Bpm`
+        /// (merges only, bidirectional photon mapping). Default `Vcm`.
+        variant: Variant = Variant::Vcm,
+        /// Technique weights: `Balance` or `Power`. Default `Balance`.
+        mis: Heuristic = Heuristic::Balance,
+        /// Merge radius r₁ of the first pass. Default `Relative(0.005)` (0.5 % of the scene's
+        /// bounding radius).
+        radius: Length = Length::Relative(0.005),
+        /// Radius schedule exponent: pass i merges within r₁·i^((α−1)/2), 0 < α ≤ 1 (1 keeps the
+        /// radius). Default 0.75.
+        alpha: f32 = 0.75,
+        /// Also write every technique as layers — connections `s{s}t{t}`, merges at the t-th
+        /// camera vertex `m{t}` — MIS-weighted (they sum to the image) and `.unweighted` (the
+        /// technique's own estimate of its paths). Needs `max_bounces`. Default false.
+        strategy_layers: bool = false,
+    }
+}
+
+/// Which of VCM's techniques are combined.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Variant {
+    /// Vertex connection and merging (Georgiev et al. 2012).
+    #[default]
+    Vcm,
+    /// Vertex connection only: bidirectional path tracing.
+    Vc,
+    /// Vertex merging only (and camera paths hitting lights): bidirectional photon mapping
+    /// (Vorba 2011).
+    Bpm,
+}
+
+impl Validate for VcmConfig {
+    fn validate(&self) -> Result<(), ConfigError> {
+        self.check_common()?;
+        self.radius.check("radius").map_err(ConfigError::Invalid)?;
+        if !(self.alpha > 0.0 && self.alpha <= 1.0) {
+            return invalid(format!(
+                "alpha must lie in (0, 1] (the radius after i passes is r₁·i^((α−1)/2)), got {}",
+                self.alpha
+            ));
+        }
+        if self.strategy_layers && self.max_bounces.is_none() {
+            return invalid(
+                "strategy_layers needs max_bounces (it bounds the number of techniques)",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// One technique's pair of layers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Layer {
+    /// Connection (s, t).
+    Connect(usize, usize),
+    /// Merge at the t-th camera vertex.
+    Merge(usize),
+}
+
+/// Vertex connection and merging, built from checked [`VcmConfig`] settings.
+pub struct Vcm {
+    config: VcmConfig,
+    router: Router,
+    /// With `strategy_layers`: every technique, in layer order.
+    layers: Vec<Layer>,
+}
+
+impl Vcm {
+    /// VCM with `config` (checked).
+    pub fn new(config: VcmConfig) -> Result<Self, ConfigError> {
+        let router = config.checked_router()?;
+        let (connect, merge) = Self::techniques_of(config.variant);
+        let layers = match (config.strategy_layers, config.max_bounces) {
+            (true, Some(max)) => {
+                let max = max as usize;
+                let connections = (2..=max + 2)
+                    .flat_map(|n| (0..n).map(move |s| (s, n - s)))
+                    .filter(|&(s, t)| t >= 1 && (connect || s == 0))
+                    .map(|(s, t)| Layer::Connect(s, t));
+                let merges = (2..=max + 1).filter(|_| merge).map(Layer::Merge);
+                connections.chain(merges).collect()
+            }
+            _ => Vec::new(),
+        };
+        Ok(Vcm {
+            config,
+            router,
+            layers,
+        })
+    }
+
+    /// Whether `variant` connects (s ≥ 1) and merges.
+    fn techniques_of(variant: Variant) -> (bool, bool) {
+        match variant {
+            Variant::Vcm => (true, true),
+            Variant::Vc => (true, false),
+            Variant::Bpm => (false, true),
+        }
+    }
+
+    /// The techniques of a pass whose merges use radius `radius` with `paths` light paths.
+    fn techniques(&self, radius: f32, paths: usize) -> Techniques {
+        let (connect, merge) = Self::techniques_of(self.config.variant);
+        let eta = std::f64::consts::PI * (radius as f64).powi(2) * paths as f64;
+        Techniques {
+            connect,
+            merge,
+            heuristic: self.config.mis,
+            eta: if merge { self.config.mis.of(eta) } else { 0.0 },
+        }
+    }
+
+    /// The merge radius of 0-based pass `pass`: r₁·(pass + 1)^((α−1)/2).
+    fn radius(&self, scene: &Scene, pass: u32) -> f32 {
+        let r1 = self.config.radius.resolve(scene.radius) as f64;
+        let exponent = (self.config.alpha as f64 - 1.0) / 2.0;
+        (r1 * (pass as f64 + 1.0).powf(exponent)) as f32
+    }
+
+    fn walk(&self, mode: TransportMode, max_depth: u32) -> Walk {
+        Walk {
+            mode,
+            max_depth,
+            russian_roulette: self.config.russian_roulette,
+            directions: Directions::Bsdf,
+        }
+    }
+
+    /// Slot of the weighted layer of `layer` (the unweighted one follows), counted from the first
+    /// technique layer.
+    fn layer_slot(&self, layer: Layer) -> Option<usize> {
+        self.layers.iter().position(|&l| l == layer).map(|i| 2 * i)
+    }
+}
+
+impl Integrator for Vcm {
+    fn render_passes(
+        &self,
+        scene: &Scene,
+        budget: &Budget,
+        seed: u64,
+        progress: &dyn Progress,
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
+    ) -> RenderOutput {
+        let spp = budget.samples_or(1);
+        self.config.sampler.dispatch(
+            spp,
+            RenderWith {
+                vcm: self,
+                scene,
+                budget,
+                seed,
+                progress,
+                on_pass,
+            },
+        )
+    }
+
+    fn sampler(&self) -> Option<&SamplerConfig> {
+        Some(&self.config.sampler)
+    }
+
+    fn check_scene(&self, scene: &Scene) -> Result<(), String> {
+        if self.config.variant == Variant::Vc {
+            return Ok(());
+        }
+        check_radius("radius", self.config.radius, scene)
+    }
+}
+
+/// Seed offset of the connection samples' stream.
+const CONNECT_STREAM: u64 = 0x7663_6d5f_636f_6e6e;
+
+struct RenderWith<'a, 'b> {
+    vcm: &'a Vcm,
+    scene: &'a Scene,
+    budget: &'a Budget,
+    seed: u64,
+    progress: &'a dyn Progress,
+    on_pass: &'b mut dyn FnMut(u32, &Film) -> bool,
+}
+
+/// What every pixel of a pass shares.
+struct Pass {
+    light: LightPass,
+    techniques: Techniques,
+    /// 1 / (π r² N), the merges' density-estimation normalisation.
+    merge_scale: f32,
+}
+
+/// The camera subpath buffers a work item reuses.
+#[derive(Default)]
+struct WorkItem {
+    camera: Vec<PathVertex>,
+    quantities: Vec<Quantities>,
+}
+
+/// Where a contribution goes.
+enum Target {
+    Pixel,
+    Splat(Vec2),
+}
+
+impl SamplerVisitor for RenderWith<'_, '_> {
+    type Output = RenderOutput;
+
+    fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
+        let RenderWith {
+            vcm,
+            scene,
+            budget,
+            seed,
+            progress,
+            on_pass,
+        } = self;
+        let cfg = &vcm.config;
+        let router = &vcm.router;
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let pixels = width as usize * height as usize;
+        let max = cfg.max_bounces.unwrap_or(u32::MAX - 2);
+        let light_walk = vcm.walk(TransportMode::Importance, max);
+        let first_layer = 1 + router.layer_count();
+        let (connects, _) = Vcm::techniques_of(cfg.variant);
+        let spec = PassSpec {
+            width,
+            height,
+            slots: first_layer + 2 * vcm.layers.len(),
+            splats: connects,
+            groups: 0,
+            independent: cfg.variant == Variant::Vc && cfg.sampler.independent(),
+        };
+        let mut schedule = Schedule::new(*budget, progress, pixels as u64);
+        let state: RwLock<Option<Pass>> = RwLock::new(None);
+        let (mut light_paths, mut stored) = (0u64, 0u64);
+        let mut begin = |i: u32, counters: &mut Counters| {
+            let radius = vcm.radius(scene, i);
+            let techniques = vcm.techniques(radius, pixels);
+            let light = LightPass::trace(
+                scene,
+                &light_walk,
+                &techniques,
+                (seed, i),
+                pixels,
+                radius,
+                counters,
+            );
+            light_paths += pixels as u64;
+            stored += light.mergeable() as u64;
+            let merge_scale =
+                (1.0 / (std::f64::consts::PI * (radius as f64).powi(2) * pixels as f64)) as f32;
+            *state.write().expect("no pass panicked") = Some(Pass {
+                light,
+                techniques,
+                merge_scale,
+            });
+        };
+        let out = run_progressive_passes(
+            &spec,
+            router,
+            &mut schedule,
+            on_pass,
+            &mut begin,
+            |x, y, index, sink, counters, item: &mut WorkItem| {
+                let pass = state.read().expect("no pass panicked");
+                let Some(pass) = pass.as_ref() else { return };
+                let mut non_finite = Counters::default();
+                vcm.pixel_sample(
+                    scene,
+                    seed,
+                    (x, y),
+                    index,
+                    prototype.clone(),
+                    pass,
+                    item,
+                    counters,
+                    |technique, layer, value, unweighted, target| {
+                        if !value.is_finite() {
+                            non_finite.count_non_finite(match (technique, &target) {
+                                (Layer::Merge(_), _) => Technique::Merge,
+                                (_, Target::Splat(_)) => Technique::CameraConnection,
+                                _ => Technique::Connection,
+                            });
+                            return;
+                        }
+                        let slot = vcm
+                            .layer_slot(technique)
+                            .filter(|_| unweighted.is_finite())
+                            .map(|k| first_layer + k);
+                        match target {
+                            Target::Splat(r) => {
+                                let pixel = sink.pixel_at(r);
+                                sink.splat_routed(pixel, layer, value);
+                                if let Some(k) = slot {
+                                    sink.splat_slot(pixel, k, value);
+                                    sink.splat_slot(pixel, k + 1, unweighted);
+                                }
+                            }
+                            Target::Pixel => {
+                                sink.add_routed(layer, value);
+                                if let Some(k) = slot {
+                                    sink.add_slot(k, value);
+                                    sink.add_slot(k + 1, unweighted);
+                                }
+                            }
+                        }
+                    },
+                );
+                counters.merge(&non_finite);
+            },
+        );
+        let mut films = out.films;
+        let film = films.remove(0);
+        let passes = out.spp;
+        let name = match cfg.variant {
+            Variant::Vcm => "Vcm",
+            Variant::Vc => "Vcm(Vc)",
+            Variant::Bpm => "Vcm(Bpm)",
+        };
+        let mut stats = RenderStats::new(
+            name,
+            &film,
+            passes,
+            seed,
+            schedule.elapsed(),
+            pixels as u64 * passes as u64,
+            &out.counters,
+            &[
+                Technique::Connection,
+                Technique::CameraConnection,
+                Technique::Merge,
+            ],
+            if spec.independent {
+                PixelVariance::Independent
+            } else if cfg.variant == Variant::Vc {
+                PixelVariance::NotAnEstimate(format!(
+                    "the {} sampler's camera subpaths are correlated (s²/n overestimates the \
+                     variance of the mean)",
+                    cfg.sampler.name()
+                ))
+            } else {
+                PixelVariance::NotAnEstimate(
+                    "the spread of per-pass estimates at a shrinking merge radius, which are not \
+                     identically distributed: measure the variance across trials"
+                        .into(),
+                )
+            },
+        );
+        stats.photons = light_paths;
+        stats.photons_stored = stored;
+        let names = router
+            .layer_names()
+            .into_iter()
+            .chain(vcm.layers.iter().flat_map(|l| {
+                let name = match *l {
+                    Layer::Connect(s, t) => format!("s{s}t{t}"),
+                    Layer::Merge(t) => format!("m{t}"),
+                };
+                [format!("{name}"), format!("{name}.unweighted")]
+            }));
+        RenderOutput {
+            film,
+            layers: names.zip(films).collect(),
+            outliers: Vec::new(),
+            stats,
+        }
+    }
+}
+
+impl Vcm {
+    /// Traces pixel sample (pass) `index` of `pixel` against the light side of `pass` and calls
+    /// `visit(technique, layer, weighted value, unweighted value, target)` for every technique
+    /// that contributes, in a fixed order.
+    #[allow(clippy::too_many_arguments)]
+    fn pixel_sample<S: Sampler>(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        (x, y): (u32, u32),
+        index: u64,
+        mut sampler: S,
+        pass: &Pass,
+        item: &mut WorkItem,
+        counters: &mut Counters,
+        mut visit: impl FnMut(Layer, usize, Rgb, Rgb, Target),
+    ) {
+        let cfg = &self.config;
+        let max = cfg.max_bounces.unwrap_or(u32::MAX - 2);
+        let bounces = (cfg.min_bounces, max);
+        let techniques = &pass.techniques;
+        let pixel = y as usize * scene.camera.width as usize + x as usize;
+        sampler.start_pixel_sample(seed, pixel as u64, index);
+        let mut connect = Independent::new();
+        connect.start_pixel_sample(seed ^ CONNECT_STREAM, pixel as u64, index);
+        let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+        let WorkItem { camera, quantities } = item;
+        camera.clear();
+        quantities.clear();
+        let camera_walk = self.walk(TransportMode::Radiance, max.saturating_add(1));
+        camera_subpath(scene, &camera_walk, film, &mut sampler, camera, counters);
+        techniques.subpath(camera, false, false, quantities);
+        let (light, light_q) = pass.light.path(pixel);
+        let route = |class: &dyn Fn() -> PathClass| {
+            if self.router.is_trivial() {
+                Some(0)
+            } else {
+                self.router.route(&class())
+            }
+        };
+        for t in 1..=camera.len() {
+            let (u_light, u_point, u_lens) =
+                (connect.next_1d(), connect.next_2d(), connect.next_2d());
+            for s in 0..=light.len() {
+                let depth = (s + t) as i64 - 2;
+                if depth < bounces.0 as i64 || depth > bounces.1 as i64 {
+                    continue;
+                }
+                if s > 0 && !techniques.connect {
+                    break;
+                }
+                let Some(layer) = route(&|| joined_class(light, camera, s, t)) else {
+                    continue;
+                };
+                let Some(c) = connection(
+                    scene, light, camera, s, t, u_light, u_point, u_lens, counters,
+                ) else {
+                    continue;
+                };
+                let weight = Self::connection_weight(
+                    scene,
+                    techniques,
+                    (light, light_q),
+                    (camera, quantities),
+                    c.sampled,
+                    s,
+                    t,
+                );
+                let target = c.raster.map_or(Target::Pixel, Target::Splat);
+                visit(
+                    Layer::Connect(s, t),
+                    layer,
+                    c.unweighted * weight,
+                    c.unweighted,
+                    target,
+                );
+            }
+            if t >= 2 && techniques.merges_at(&camera[t - 1]) {
+                merge::merge(
+                    &pass.light,
+                    techniques,
+                    camera,
+                    t,
+                    quantities[t - 1],
+                    pass.merge_scale,
+                    bounces,
+                    |m| {
+                        let class = || m.light.class.then(camera[t - 2].class.reversed());
+                        if let Some(layer) = route(&class) {
+                            visit(
+                                Layer::Merge(t),
+                                layer,
+                                m.unweighted * m.weight,
+                                m.unweighted,
+                                Target::Pixel,
+                            );
+                        }
+                    },
+                );
+            }
+        }
+    }
+
+    /// The MIS weight of connection (s, t), `sampled` the endpoint the strategy sampled anew.
+    fn connection_weight(
+        scene: &Scene,
+        techniques: &Techniques,
+        (light, light_q): (&[PathVertex], &[Quantities]),
+        (camera, camera_q): (&[PathVertex], &[Quantities]),
+        sampled: Option<PathVertex>,
+        s: usize,
+        t: usize,
+    ) -> f32 {
+        let delta_light = |v: &PathVertex| {
+            v.light()
+                .is_some_and(|l| scene.lights[l as usize].is_delta())
+        };
+        let (lens, light_point);
+        let camera_used: &[PathVertex] = if t == 1 {
+            lens = [sampled.expect("t = 1 samples the lens")];
+            &lens
+        } else {
+            &camera[..t]
+        };
+        let light_used: &[PathVertex] = if s == 1 && t > 1 {
+            light_point = [sampled.expect("s = 1 samples the light point")];
+            &light_point
+        } else {
+            &light[..s]
+        };
+        let rev: Reverse = reverse_densities(scene, light_used, camera_used, s, t);
+        let light_end = (s > 0).then(|| {
+            let v = &light_used[s - 1];
+            let q = if s == 1 && t > 1 {
+                techniques.sampled_light(v, delta_light(v))
+            } else {
+                light_q[s - 1]
+            };
+            (q, techniques.merges_at(v))
+        });
+        let camera_end = if t == 1 {
+            (Quantities::default(), false)
+        } else {
+            (
+                camera_q[t - 1],
+                s > 0 && techniques.merges_at(&camera[t - 1]),
+            )
+        };
+        techniques.connection(light_end, camera_end, &rev)
+    }
+}
