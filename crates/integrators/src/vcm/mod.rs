@@ -423,7 +423,7 @@ impl SamplerVisitor for RenderWith<'_, '_> {
                     Layer::Connect(s, t) => format!("s{s}t{t}"),
                     Layer::Merge(t) => format!("m{t}"),
                 };
-                [format!("{name}"), format!("{name}.unweighted")]
+                [name.clone(), format!("{name}.unweighted")]
             }));
         RenderOutput {
             film,

@@ -207,7 +207,8 @@ fn production_weights_sum_to_one_and_vc_is_bdpt() {
         );
         lightlab_scene::parse_scene(&text, std::path::Path::new("mirror-sphere.ron")).unwrap()
     };
-    let cases: [(&str, Scene, &dyn Fn(&[PathVertex]) -> bool, u32); 5] = [
+    type Keep<'a> = &'a dyn Fn(&[PathVertex]) -> bool;
+    let cases: [(&str, Scene, Keep, u32); 5] = [
         ("mirror sphere", mirror_sphere, &with_delta, 6),
         (
             "flat interface",
