@@ -16,14 +16,16 @@ fn render_with(threads: usize, seed: u64, config: &str, spp: u32) -> lightlab_in
     pool.install(|| render(&sc, config, spp, seed)).film
 }
 
-/// Photon maps are traced in parallel chunks and searched by a kd-tree: the images must still be
-/// identical on one and two threads.
+/// Photon maps (and VCM's light subpaths) are traced in parallel chunks and searched by a kd-tree
+/// or hash grid: the images must still be identical on one and two threads.
 #[test]
 fn photon_mapping_same_bits_on_one_and_two_threads() {
     for config in [
         "PhotonMap(photons: 30000, caustic_photons: 10000, indirect: FinalGather(rays: 2))",
         "Sppm(photons_per_pass: 10000)",
         "Ppm(photons_per_pass: 10000, update: Global)",
+        "Vcm(radius: Relative(0.05))",
+        "Vcm(variant: Bpm, radius: Relative(0.05), layers: Bounces, max_bounces: 4)",
     ] {
         let one = render_with(1, 4, config, 3);
         let two = render_with(2, 4, config, 3);

@@ -10,9 +10,14 @@ use lightlab_tests::{
     across_seeds, caustic_sphere, cornell, furnace, image_mean, render, scene, z,
 };
 
-/// z-tests in this file: 3 channels × (furnace: 4 integrators × 5 layers; caustic: 5 methods ×
+/// z-tests in this file: 3 channels × (furnace: 5 integrators × 5 layers; caustic: 7 methods ×
 /// 3 classes).
-const TESTS: u64 = 3 * (4 * 5 + 5 * 3);
+const TESTS: u64 = 3 * (5 * 5 + 7 * 3);
+
+/// Integrators without a standard error of their own, tested across 8 seeds.
+fn across_trials(config: &str) -> bool {
+    config.starts_with("Sppm") || (config.starts_with("Vcm") && !config.contains("Vc,"))
+}
 
 /// An image average and its standard error.
 type MeanSe = ([f64; 3], [f64; 3]);
@@ -50,6 +55,8 @@ fn layers_sum_on(sc: &lightlab_scene::Scene) {
         "Bdpt(max_bounces: 6",
         "PhotonMap(max_bounces: 6, photons: 20000, caustic_photons: 20000, indirect: FinalGather(rays: 2)",
         "Sppm(max_bounces: 6, photons_per_pass: 5000",
+        "Vcm(max_bounces: 6, radius: Relative(0.05)",
+        "Vcm(max_bounces: 6, variant: Bpm, radius: Relative(0.05)",
     ] {
         for layers in [r#"Classes(["LS+DE", "L.*D.*E", "LDE"])"#, "Bounces"] {
             let out = render(sc, &format!("{integrator}, layers: {layers})"), 4, 9);
@@ -115,9 +122,14 @@ fn furnace_bounce_layers_are_the_neumann_terms() {
             "Sppm(max_bounces: 4, layers: Bounces, photons_per_pass: 20000, update: Global)",
             8,
         ),
+        (
+            "Vcm(max_bounces: 4, layers: Bounces, radius: Relative(0.05))",
+            32,
+        ),
     ] {
-        // SPPM has no standard error of its own: 8 independent renders give one (Student t).
-        let (layers, crit): (Vec<MeanSe>, f64) = if config.starts_with("Sppm") {
+        // SPPM and VCM have no standard error of their own: 8 independent renders give one
+        // (Student t).
+        let (layers, crit): (Vec<MeanSe>, f64) = if across_trials(config) {
             let all = across_seeds(&sc, config, spp, 8);
             (all[1..].to_vec(), t_critical(sidak(1e-3, TESTS), 7.0))
         } else {
@@ -148,8 +160,9 @@ fn furnace_bounce_layers_are_the_neumann_terms() {
 /// light `LDE` and the emitter `LE`, each method against light tracing (the most precise on the
 /// first two; path tracing on `LE`, which light tracing sees only at the emitter's own pixels too).
 /// Photon maps are consistent, not unbiased: their tolerance adds the density-estimation bias
-/// measured on this scene (SPPM 3 %, the photon map 5 %); SPPM's standard error comes from 8
-/// independent renders (Student t), the photon map's own includes its photon groups.
+/// measured on this scene (SPPM 3 %, the photon map 5 %, VCM — whose weights leave the merges
+/// little of these classes — 1 %); SPPM's and VCM's standard errors come from 8 independent
+/// renders (Student t), the photon map's own includes its photon groups.
 #[test]
 fn caustic_classes_agree_between_methods() {
     let sc = caustic(32);
@@ -161,6 +174,8 @@ fn caustic_classes_agree_between_methods() {
         ("Bdpt(max_bounces: 6", 256, 0.0),
         ("Light(max_bounces: 6", 1024, 0.0),
         ("Sppm(max_bounces: 6, photons_per_pass: 50000", 8, 0.03),
+        ("Vcm(variant: Vc, max_bounces: 6", 256, 0.0),
+        ("Vcm(max_bounces: 6", 32, 0.01),
         (
             "PhotonMap(max_bounces: 6, photons: 50000, caustic_photons: 200000, indirect: Off",
             16,
@@ -168,7 +183,7 @@ fn caustic_classes_agree_between_methods() {
         ),
     ] {
         let config = format!("{method}, {classes})");
-        let (estimates, crit) = if method.starts_with("Sppm") {
+        let (estimates, crit) = if across_trials(&config) {
             let all = across_seeds(&sc, &config, spp, 8);
             (all[1..4].to_vec(), t_critical(sidak(1e-3, TESTS), 7.0))
         } else {

@@ -250,3 +250,55 @@ fn vc_reports_a_standard_error_and_vcm_does_not_pretend_to() {
     let vcm = render(&sc, "Vcm()", 4, 1);
     assert!(vcm.film.image_se.is_none());
 }
+
+/// `strategy_layers` writes every connection `s{S}t{T}` and merge `m{T}` weighted (they sum to
+/// the image, pixel by pixel, to rounding) and unweighted; on the caustic sphere the caustic seen
+/// directly (`L S S D E`, mostly) comes from light tracing's strategies (s{S}t1) and merges,
+/// camera paths hitting the light through the glass (s0t{T}) carrying almost none of it.
+#[test]
+fn technique_layers_sum_to_the_image() {
+    let sc = scene(&caustic_sphere((16, 16)));
+    let out = render(
+        &sc,
+        r#"Vcm(max_bounces: 4, strategy_layers: true, radius: Relative(0.02), paths: "LS+DE")"#,
+        32,
+        3,
+    );
+    let names: Vec<&str> = out.layers.iter().map(|(n, _)| n.as_str()).collect();
+    for want in ["s0t2", "s1t1", "s2t1", "s3t2", "m2", "m3.unweighted", "m5"] {
+        assert!(names.contains(&want), "no layer {want} in {names:?}");
+    }
+    let weighted: Vec<_> = out
+        .layers
+        .iter()
+        .filter(|(n, _)| !n.ends_with(".unweighted"))
+        .collect();
+    for i in 0..out.film.pixels.len() {
+        let whole = out.film.mean(i);
+        for c in 0..3 {
+            let sum: f64 = weighted.iter().map(|(_, f)| f.mean(i)[c]).sum();
+            assert!(
+                (sum - whole[c]).abs() <= 1e-5 * whole[c].abs().max(1e-3),
+                "pixel {i} channel {c}: layers {sum} vs image {}",
+                whole[c]
+            );
+        }
+    }
+    // Σ of the weighted layers whose names `pick` accepts.
+    let total = |pick: &dyn Fn(&str) -> bool| -> f64 {
+        weighted
+            .iter()
+            .filter(|(n, _)| pick(n))
+            .map(|(_, f)| f.average().iter().sum::<f64>())
+            .sum()
+    };
+    let all = out.film.average().iter().sum::<f64>();
+    let light_tracing = total(&|n| n.ends_with("t1"));
+    let merges = total(&|n| n.starts_with('m'));
+    let camera_hits = total(&|n| n.starts_with("s0"));
+    assert!(
+        light_tracing + merges > 0.95 * all && camera_hits < 0.01 * all,
+        "light tracing {light_tracing:.3e} + merges {merges:.3e} of {all:.3e}; camera paths \
+         hitting the light {camera_hits:.3e}"
+    );
+}

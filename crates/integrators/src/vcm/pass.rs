@@ -19,7 +19,7 @@ use rayon::prelude::*;
 /// Offset of the light subpaths' random-number streams from the camera's.
 const LIGHT_STREAM: u64 = 0x7663_6d5f_6c69_6768;
 /// Light paths per parallel work item.
-const CHUNK: usize = 1024;
+const CHUNK: usize = 256;
 
 /// A light vertex a camera vertex can merge with: where it is, and its index in the pass.
 #[derive(Clone, Copy, Debug)]
