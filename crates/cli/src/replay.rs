@@ -1,20 +1,22 @@
-//! `lightlab replay`: recompute one pixel sample of a bidirectional render, every strategy's
-//! contribution with its provenance, from (seed, pixel, sample index) alone.
+//! `lightlab replay`: recompute one pixel sample of a bidirectional render (BDPT or VCM), every
+//! technique's contribution with its provenance, from (seed, pixel, sample index) alone.
 
 use clap::Args;
 use lightlab_integrators::IntegratorConfig;
+use lightlab_integrators::Vcm;
 use lightlab_integrators::bdpt::Bdpt;
 use std::io::Write;
 use std::path::PathBuf;
 
-/// Replay one pixel sample of a `Bdpt` render deterministically — e.g. an outlier from
-/// OUT.outliers.json — and print every strategy's contribution: (s, t), path class, weighted and
-/// unweighted value, MIS weight and the path's area-measure densities, as JSON.
+/// Replay one pixel sample of a `Bdpt` or `Vcm` render deterministically — e.g. an outlier from
+/// OUT.outliers.json — and print every technique's contribution: (s, t) (and `merge` for a VCM
+/// merge), path class, weighted and unweighted value, MIS weight and the path's area-measure
+/// densities, as JSON. For `Vcm` the sample index is the pass, whose light subpaths are retraced.
 #[derive(Args)]
 pub struct ReplayArgs {
     /// Scene file (RON).
     scene: PathBuf,
-    /// The render's integrator settings (must be `Bdpt(...)`).
+    /// The render's integrator settings (`Bdpt(...)` or `Vcm(...)`).
     #[arg(long, short)]
     integrator: String,
     /// The render's seed.
@@ -46,9 +48,9 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 pub fn run(args: ReplayArgs) -> Result<(), String> {
     let config = IntegratorConfig::from_ron(&args.integrator)
         .map_err(|e| format!("--integrator '{}': {e}", args.integrator))?;
-    let IntegratorConfig::Bdpt(bdpt) = config else {
-        return Err("replay works on Bdpt(...) renders".into());
-    };
+    if !matches!(config, IntegratorConfig::Bdpt(_) | IntegratorConfig::Vcm(_)) {
+        return Err("replay works on Bdpt(...) and Vcm(...) renders".into());
+    }
     let scene = lightlab_scene::load_scene(&args.scene).map_err(|e| e.to_string())?;
     let (w, h) = (scene.camera.width, scene.camera.height);
     if args.pixel.0 >= w || args.pixel.1 >= h {
@@ -65,8 +67,12 @@ pub fn run(args: ReplayArgs) -> Result<(), String> {
             args.spp - 1
         ));
     }
-    let contributions =
-        Bdpt::new(bdpt)?.replay(&scene, args.seed, args.spp, args.pixel, args.sample);
+    let (seed, spp, pixel, sample) = (args.seed, args.spp, args.pixel, args.sample);
+    let contributions = match config {
+        IntegratorConfig::Bdpt(c) => Bdpt::new(c)?.replay(&scene, seed, spp, pixel, sample),
+        IntegratorConfig::Vcm(c) => Vcm::new(c)?.replay(&scene, seed, spp, pixel, sample),
+        _ => unreachable!("checked above"),
+    };
     let json = serde_json::to_string_pretty(&contributions).expect("contributions serialise");
     // A closed pipe (`| head`) is not an error.
     match writeln!(std::io::stdout(), "{json}") {

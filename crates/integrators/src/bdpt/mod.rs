@@ -49,13 +49,13 @@ use crate::film::Film;
 use crate::passes::{PassSpec, Schedule, run_passes};
 use crate::paths::Router;
 use crate::provenance::Outlier;
+use crate::provenance::SplatSource;
 use crate::render::{Counters, PixelVariance, Technique};
 use crate::walk::{Directions, PathVertex, Walk};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use lightlab_core::{Progress, TransportMode};
 use lightlab_samplers::{Independent, Sampler, SamplerConfig, SamplerVisitor};
 use lightlab_scene::Scene;
-use provenance::{OUTLIER_MIN_SAMPLES, SplatSource};
 use serde::{Deserialize, Serialize};
 
 settings! {
@@ -266,8 +266,7 @@ impl SamplerVisitor for RenderWith<'_, '_> {
                 let mut light_sampler = Independent::new();
                 // Non-finite counts of this sample (the sample holds `counters`).
                 let mut non_finite = Counters::default();
-                let (running_mean, running_count) = sink.running_mean();
-                let scale = running_mean[0].max(running_mean[1]).max(running_mean[2]);
+                let running = sink.running_mean();
                 let WorkItem {
                     camera,
                     light,
@@ -299,21 +298,12 @@ impl SamplerVisitor for RenderWith<'_, '_> {
                         // `splat_outliers`).
                         let outlier = match cfg.outliers {
                             Some(factor) if c.raster.is_none() => {
-                                running_count >= OUTLIER_MIN_SAMPLES
-                                    && value.max_component() as f64
-                                        > factor as f64 * scale.max(f64::MIN_POSITIVE)
+                                Outlier::exceeds(value, running, factor)
                             }
                             _ => false,
                         };
                         if !finite || outlier {
-                            outliers.push(Outlier::new(
-                                (x, y),
-                                index,
-                                c,
-                                running_mean,
-                                light,
-                                camera,
-                            ));
+                            outliers.push(Outlier::new((x, y), index, c, running.0, light, camera));
                         }
                         if !finite {
                             return;

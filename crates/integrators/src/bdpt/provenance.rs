@@ -4,16 +4,11 @@
 use super::connect::{Contribution, joined_class};
 use super::{Bdpt, WorkItem};
 use crate::film::Film;
-use crate::provenance::Outlier;
+use crate::provenance::{Logged, Outlier};
 use crate::render::Counters;
 use crate::walk::PathVertex;
-use lightlab_core::Rgb;
 use lightlab_samplers::{Independent, Sampler, SamplerVisitor};
 use lightlab_scene::Scene;
-
-/// Pixel samples before which no contribution is called an outlier (the running mean is too
-/// uncertain before).
-pub(super) const OUTLIER_MIN_SAMPLES: u64 = 8;
 
 impl Outlier {
     pub(super) fn new(
@@ -24,39 +19,23 @@ impl Outlier {
         light: &[PathVertex],
         camera: &[PathVertex],
     ) -> Outlier {
-        let path = light.iter().chain(camera.iter().rev());
-        let v = c.unweighted * c.weight;
-        Outlier {
-            pixel: [pixel.0, pixel.1],
+        let logged = Logged {
+            s: c.s,
+            t: c.t,
+            merge: false,
+            class: joined_class(light, camera, c.s, c.t),
+            unweighted: c.unweighted,
+            weight: c.weight,
+            raster: c.raster,
+        };
+        Outlier::logged(
+            pixel,
             sample,
-            s: c.s as u32,
-            t: c.t as u32,
-            class: joined_class(light, camera, c.s, c.t).to_heckbert(),
-            value: [v.r, v.g, v.b],
-            unweighted: [c.unweighted.r, c.unweighted.g, c.unweighted.b],
-            mis_weight: c.weight,
-            raster: c.raster.map(|r| [r.x, r.y]),
+            &logged,
             pixel_mean,
-            pdf_fwd: path.clone().map(|v| v.pdf_fwd).collect(),
-            pdf_rev: path.map(|v| v.pdf_rev).collect(),
-        }
+            light.iter().chain(camera.iter().rev()),
+        )
     }
-}
-
-/// A splat, and the pixel sample and strategy it came from, to replay it if it turns out an
-/// outlier.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct SplatSource {
-    /// The pixel it lands in.
-    pub target: u32,
-    /// Its value.
-    pub value: Rgb,
-    /// The pixel sample that made it: pixel and sample index.
-    pub pixel: (u32, u32),
-    pub sample: u64,
-    /// Its strategy.
-    pub s: u16,
-    pub t: u16,
 }
 
 impl Bdpt {
@@ -75,11 +54,10 @@ impl Bdpt {
         for r in items {
             for src in &r.splat_sources {
                 let value = src.value;
-                let mean = film.mean(src.target as usize);
-                let scale = mean[0].max(mean[1]).max(mean[2]);
-                if (value.max_component() as f64) <= factor as f64 * scale.max(f64::MIN_POSITIVE) {
+                if !src.is_outlier(film, factor) {
                     continue;
                 }
+                let mean = film.mean(src.target as usize);
                 let replayed = self.replay(scene, seed, spp, src.pixel, src.sample);
                 if let Some(mut o) = replayed.into_iter().find(|o| {
                     (o.s, o.t) == (src.s as u32, src.t as u32)

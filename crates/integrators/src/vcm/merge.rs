@@ -18,6 +18,8 @@ use lightlab_core::{Rgb, TransportMode};
 pub(super) struct Merged<'a> {
     /// The light vertex.
     pub light: &'a PathVertex,
+    /// Its light subpath up to and including it.
+    pub light_path: &'a [PathVertex],
     /// The merge's estimate before its MIS weight.
     pub unweighted: Rgb,
     pub weight: f32,
@@ -57,6 +59,8 @@ pub(super) fn merge(
         let shading = if cos_s == cos_g { 1.0 } else { cos_s / cos_g };
         visit(&Merged {
             light: y,
+            // A light subpath's vertices are numbered from 0 at its origin.
+            light_path: &pass.vertices[i - y.depth as usize..=i],
             unweighted: z.beta * f * y.beta * (shading * scale),
             // The light vertex has depth ≥ 1, so its predecessor is the vertex before it.
             weight: merge_weight(

@@ -35,6 +35,7 @@
 mod merge;
 mod mis;
 mod pass;
+mod provenance;
 #[cfg(test)]
 mod tests;
 
@@ -44,13 +45,14 @@ use crate::bdpt::{Reverse, camera_subpath, connection, joined_class, reverse_den
 use crate::config::{ConfigError, Validate, invalid, settings};
 use crate::film::Film;
 use crate::passes::{PassSpec, Schedule, run_progressive_passes};
-use crate::paths::{PathClass, Router};
+use crate::paths::Router;
 use crate::photon::config::{Length, check_radius};
+use crate::provenance::{Logged, Outlier, SplatSource};
 use crate::render::{Counters, PixelVariance, Technique};
 use crate::walk::{Directions, PathVertex, Walk};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
-use lightlab_core::{Progress, Rgb, TransportMode};
+use lightlab_core::{Progress, TransportMode};
 use lightlab_samplers::{Independent, Sampler, SamplerConfig, SamplerVisitor};
 use lightlab_scene::Scene;
 use mis::{Quantities, Techniques};
@@ -81,6 +83,11 @@ settings! {
         /// camera vertex `m{t}` — MIS-weighted (they sum to the image) and `.unweighted` (the
         /// technique's own estimate of its paths). Needs `max_bounces`. Default false.
         strategy_layers: bool = false,
+        /// Log every contribution larger (in its largest channel) than this multiple of its
+        /// pixel's mean, with its provenance (pixel, pass, technique, path class, densities, MIS
+        /// weight), for replay with `lightlab replay`. Non-finite contributions are always logged.
+        /// Default `None` (only non-finite ones).
+        outliers: Option<f32> = None,
     }
 }
 
@@ -105,6 +112,13 @@ impl Validate for VcmConfig {
             return invalid(format!(
                 "alpha must lie in (0, 1] (the radius after i passes is r₁·i^((α−1)/2)), got {}",
                 self.alpha
+            ));
+        }
+        if let Some(f) = self.outliers
+            && !(f > 1.0 && f.is_finite())
+        {
+            return invalid(format!(
+                "outliers is a multiple of the pixel's mean and must be finite and > 1, got {f}"
             ));
         }
         if self.strategy_layers && self.max_bounces.is_none() {
@@ -256,17 +270,15 @@ struct Pass {
     merge_scale: f32,
 }
 
-/// The camera subpath buffers a work item reuses.
+/// What one work item keeps: the camera subpath buffers it reuses, and the outliers and splat
+/// provenance it logged.
 #[derive(Default)]
 struct WorkItem {
     camera: Vec<PathVertex>,
     quantities: Vec<Quantities>,
-}
-
-/// Where a contribution goes.
-enum Target {
-    Pixel,
-    Splat(Vec2),
+    outliers: Vec<Outlier>,
+    /// Where each splat of the full image came from (only with `outliers`).
+    splat_sources: Vec<SplatSource>,
 }
 
 impl SamplerVisitor for RenderWith<'_, '_> {
@@ -285,8 +297,6 @@ impl SamplerVisitor for RenderWith<'_, '_> {
         let router = &vcm.router;
         let (width, height) = (scene.camera.width, scene.camera.height);
         let pixels = width as usize * height as usize;
-        let max = cfg.max_bounces.unwrap_or(u32::MAX - 2);
-        let light_walk = vcm.walk(TransportMode::Importance, max);
         let first_layer = 1 + router.layer_count();
         let (connects, _) = Vcm::techniques_of(cfg.variant);
         let spec = PassSpec {
@@ -301,26 +311,10 @@ impl SamplerVisitor for RenderWith<'_, '_> {
         let state: RwLock<Option<Pass>> = RwLock::new(None);
         let (mut light_paths, mut stored) = (0u64, 0u64);
         let mut begin = |i: u32, counters: &mut Counters| {
-            let radius = vcm.radius(scene, i);
-            let techniques = vcm.techniques(radius, pixels);
-            let light = LightPass::trace(
-                scene,
-                &light_walk,
-                &techniques,
-                (seed, i),
-                pixels,
-                radius,
-                counters,
-            );
+            let pass = vcm.pass(scene, seed, i, counters);
             light_paths += pixels as u64;
-            stored += light.mergeable() as u64;
-            let merge_scale =
-                (1.0 / (std::f64::consts::PI * (radius as f64).powi(2) * pixels as f64)) as f32;
-            *state.write().expect("no pass panicked") = Some(Pass {
-                light,
-                techniques,
-                merge_scale,
-            });
+            stored += pass.light.mergeable() as u64;
+            *state.write().expect("no pass panicked") = Some(pass);
         };
         let out = run_progressive_passes(
             &spec,
@@ -332,6 +326,13 @@ impl SamplerVisitor for RenderWith<'_, '_> {
                 let pass = state.read().expect("no pass panicked");
                 let Some(pass) = pass.as_ref() else { return };
                 let mut non_finite = Counters::default();
+                let running = sink.running_mean();
+                let WorkItem {
+                    camera,
+                    quantities,
+                    outliers,
+                    splat_sources,
+                } = item;
                 vcm.pixel_sample(
                     scene,
                     seed,
@@ -339,35 +340,67 @@ impl SamplerVisitor for RenderWith<'_, '_> {
                     index,
                     prototype.clone(),
                     pass,
-                    item,
+                    (camera, quantities),
                     counters,
-                    |technique, layer, value, unweighted, target| {
-                        if !value.is_finite() {
-                            non_finite.count_non_finite(match (technique, &target) {
-                                (Layer::Merge(_), _) => Technique::Merge,
-                                (_, Target::Splat(_)) => Technique::CameraConnection,
+                    |technique, layer, c, light, camera| {
+                        let value = c.unweighted * c.weight;
+                        let finite = value.is_finite();
+                        if !finite {
+                            non_finite.count_non_finite(match (c.merge, c.raster) {
+                                (true, _) => Technique::Merge,
+                                (_, Some(_)) => Technique::CameraConnection,
                                 _ => Technique::Connection,
                             });
+                        }
+                        // Camera-side contributions are compared with their pixel's mean over
+                        // the passes before this one; splats, which land in other pixels, with
+                        // their pixel's final mean after the render.
+                        let outlier = match cfg.outliers {
+                            Some(factor) if c.raster.is_none() => {
+                                Outlier::exceeds(value, running, factor)
+                            }
+                            _ => false,
+                        };
+                        if !finite || outlier {
+                            outliers.push(Outlier::logged(
+                                (x, y),
+                                index,
+                                c,
+                                running.0,
+                                light.iter().chain(camera.iter().rev()),
+                            ));
+                        }
+                        if !finite {
                             return;
                         }
                         let slot = vcm
                             .layer_slot(technique)
-                            .filter(|_| unweighted.is_finite())
+                            .filter(|_| c.unweighted.is_finite())
                             .map(|k| first_layer + k);
-                        match target {
-                            Target::Splat(r) => {
+                        match c.raster {
+                            Some(r) => {
                                 let pixel = sink.pixel_at(r);
                                 sink.splat_routed(pixel, layer, value);
                                 if let Some(k) = slot {
                                     sink.splat_slot(pixel, k, value);
-                                    sink.splat_slot(pixel, k + 1, unweighted);
+                                    sink.splat_slot(pixel, k + 1, c.unweighted);
+                                }
+                                if cfg.outliers.is_some() {
+                                    splat_sources.push(SplatSource {
+                                        target: pixel,
+                                        value,
+                                        pixel: (x, y),
+                                        sample: index,
+                                        s: c.s as u16,
+                                        t: c.t as u16,
+                                    });
                                 }
                             }
-                            Target::Pixel => {
+                            None => {
                                 sink.add_routed(layer, value);
                                 if let Some(k) = slot {
                                     sink.add_slot(k, value);
-                                    sink.add_slot(k + 1, unweighted);
+                                    sink.add_slot(k + 1, c.unweighted);
                                 }
                             }
                         }
@@ -425,19 +458,56 @@ impl SamplerVisitor for RenderWith<'_, '_> {
                 };
                 [name.clone(), format!("{name}.unweighted")]
             }));
+        let mut outliers: Vec<Outlier> = out
+            .extras
+            .iter()
+            .flat_map(|r| r.outliers.iter().cloned())
+            .collect();
+        if let Some(factor) = cfg.outliers {
+            let sources = out.extras.iter().flat_map(|r| r.splat_sources.iter());
+            outliers.extend(vcm.splat_outliers(scene, seed, passes, sources, &film, factor));
+        }
+        stats.outliers = provenance::count_by_technique(&outliers);
         RenderOutput {
             film,
             layers: names.zip(films).collect(),
-            outliers: Vec::new(),
+            outliers,
             stats,
         }
     }
 }
 
 impl Vcm {
-    /// Traces pixel sample (pass) `index` of `pixel` against the light side of `pass` and calls
-    /// `visit(technique, layer, weighted value, unweighted value, target)` for every technique
-    /// that contributes, in a fixed order.
+    /// The light side of 0-based pass `i`: its light subpaths, their index and the techniques'
+    /// weights at its radius.
+    fn pass(&self, scene: &Scene, seed: u64, i: u32, counters: &mut Counters) -> Pass {
+        let pixels = scene.camera.width as usize * scene.camera.height as usize;
+        let max = self.config.max_bounces.unwrap_or(u32::MAX - 2);
+        let radius = self.radius(scene, i);
+        let techniques = self.techniques(radius, pixels);
+        let light = LightPass::trace(
+            scene,
+            &self.walk(TransportMode::Importance, max),
+            &techniques,
+            (seed, i),
+            pixels,
+            radius,
+            counters,
+        );
+        let merge_scale =
+            (1.0 / (std::f64::consts::PI * (radius as f64).powi(2) * pixels as f64)) as f32;
+        Pass {
+            light,
+            techniques,
+            merge_scale,
+        }
+    }
+
+    /// Traces pixel sample (pass) `index` of `pixel` against the light side of `pass` (in the
+    /// reused buffers `camera`) and calls `visit(technique, layer, contribution, light path,
+    /// camera path)` for every technique that contributes, in a fixed order; the paths are the
+    /// vertices the technique joined (a merge's camera path without the merged vertex). Rendering
+    /// and [`Vcm::replay`] both go through here.
     #[allow(clippy::too_many_arguments)]
     fn pixel_sample<S: Sampler>(
         &self,
@@ -447,9 +517,9 @@ impl Vcm {
         index: u64,
         mut sampler: S,
         pass: &Pass,
-        item: &mut WorkItem,
+        (camera, quantities): (&mut Vec<PathVertex>, &mut Vec<Quantities>),
         counters: &mut Counters,
-        mut visit: impl FnMut(Layer, usize, Rgb, Rgb, Target),
+        mut visit: impl FnMut(Layer, usize, &Logged, &[PathVertex], &[PathVertex]),
     ) {
         let cfg = &self.config;
         let max = cfg.max_bounces.unwrap_or(u32::MAX - 2);
@@ -460,20 +530,12 @@ impl Vcm {
         let mut connect = Independent::new();
         connect.start_pixel_sample(seed ^ CONNECT_STREAM, pixel as u64, index);
         let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-        let WorkItem { camera, quantities } = item;
         camera.clear();
         quantities.clear();
         let camera_walk = self.walk(TransportMode::Radiance, max.saturating_add(1));
         camera_subpath(scene, &camera_walk, film, &mut sampler, camera, counters);
         techniques.subpath(camera, false, false, quantities);
         let (light, light_q) = pass.light.path(pixel);
-        let route = |class: &dyn Fn() -> PathClass| {
-            if self.router.is_trivial() {
-                Some(0)
-            } else {
-                self.router.route(&class())
-            }
-        };
         for t in 1..=camera.len() {
             let (u_light, u_point, u_lens) =
                 (connect.next_1d(), connect.next_2d(), connect.next_2d());
@@ -485,7 +547,8 @@ impl Vcm {
                 if s > 0 && !techniques.connect {
                     break;
                 }
-                let Some(layer) = route(&|| joined_class(light, camera, s, t)) else {
+                let class = joined_class(light, camera, s, t);
+                let Some(layer) = self.router.route(&class) else {
                     continue;
                 };
                 let Some(c) = connection(
@@ -502,13 +565,21 @@ impl Vcm {
                     s,
                     t,
                 );
-                let target = c.raster.map_or(Target::Pixel, Target::Splat);
+                let logged = Logged {
+                    s,
+                    t,
+                    merge: false,
+                    class,
+                    unweighted: c.unweighted,
+                    weight,
+                    raster: c.raster,
+                };
                 visit(
                     Layer::Connect(s, t),
                     layer,
-                    c.unweighted * weight,
-                    c.unweighted,
-                    target,
+                    &logged,
+                    &light[..s.min(light.len())],
+                    &camera[..t],
                 );
             }
             if t >= 2 && techniques.merges_at(&camera[t - 1]) {
@@ -521,14 +592,23 @@ impl Vcm {
                     pass.merge_scale,
                     bounces,
                     |m| {
-                        let class = || m.light.class.then(camera[t - 2].class.reversed());
-                        if let Some(layer) = route(&class) {
+                        let class = m.light.class.then(camera[t - 2].class.reversed());
+                        if let Some(layer) = self.router.route(&class) {
+                            let logged = Logged {
+                                s: m.light_path.len(),
+                                t,
+                                merge: true,
+                                class,
+                                unweighted: m.unweighted,
+                                weight: m.weight,
+                                raster: None,
+                            };
                             visit(
                                 Layer::Merge(t),
                                 layer,
-                                m.unweighted * m.weight,
-                                m.unweighted,
-                                Target::Pixel,
+                                &logged,
+                                m.light_path,
+                                &camera[..t - 1],
                             );
                         }
                     },
