@@ -122,6 +122,8 @@ fn photon_radii_at_the_limit_of_f32() {
     for config in [
         "Sppm(radius: Absolute(1e-7))",
         "Ppm(radius: Absolute(1e-7))",
+        "Vcm(radius: Absolute(1e-7))",
+        "Vcm(variant: Bpm, radius: Absolute(1e-7))",
         "PhotonMap(gather: Radius(Absolute(1e-7)))",
         "PhotonMap(caustic_gather: Nearest(k: 50, max_radius: Absolute(1e-7)))",
     ] {

@@ -54,8 +54,8 @@ fn cornell_box_far_away_tiny_and_huge_renders_the_same() {
 
 /// Every integrator: the image mean of each variant against the box's own (another seed), by a
 /// z-test on both renders' standard errors. Photon radii are `Relative` (the default), so they
-/// scale with the scene. `Ppm` and `Sppm` have no standard error of their own: with the same seed
-/// their renders differ only by rounding, so they must agree to 1 %. Before, light tracing and
+/// scale with the scene. `Ppm`, `Sppm` and `Vcm` have no standard error of their own: with the
+/// same seed their renders differ only by rounding, so they must agree to 1 %. Before, light tracing and
 /// BDPT judged Russian roulette by the light path's flux, which scales with the scene's area:
 /// at 10⁻³ they lost every path beyond three bounces (−6 % and −2 %).
 #[test]
@@ -71,6 +71,8 @@ fn every_integrator_is_scale_and_translation_invariant() {
         ),
         ("Sppm(max_bounces: 8, photons_per_pass: 10000)", 8),
         ("Ppm(max_bounces: 8, photons_per_pass: 10000)", 8),
+        ("Vcm(max_bounces: 8)", 8),
+        ("Vcm(max_bounces: 8, variant: Vc)", 8),
     ];
     let crit = z_critical(sidak(1e-3, (configs.len() * VARIANTS.len() * 3) as u64));
     for (config, spp) in configs {

@@ -239,6 +239,7 @@ fn two_environments_render_as_their_sum() {
         "PhotonMap(max_bounces: 4, photons: 2000, caustic_photons: 2000)",
         "Sppm(max_bounces: 4, photons_per_pass: 2000)",
         "Ppm(max_bounces: 4, photons_per_pass: 2000)",
+        "Vcm(max_bounces: 4, radius: Relative(0.05))",
     ] {
         let (a, b) = (render(&one, config, 4, 2), render(&two, config, 4, 2));
         assert!(

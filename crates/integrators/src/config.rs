@@ -384,6 +384,13 @@ mod tests {
             ),
             ("PhotonMap(indirect: FinalGather(rays: 0))", "FinalGather"),
             ("PhotonMap(kernel: Gaussian)", "Epanechnikov"),
+            ("Vcm(alpha: 0)", "alpha must lie in (0, 1]"),
+            ("Vcm(alpha: 1.5)", "alpha"),
+            ("Vcm(radius: Absolute(0))", "radius"),
+            ("Vcm(outliers: Some(0.5))", "outliers"),
+            ("Vcm(strategy_layers: true)", "needs max_bounces"),
+            ("Vcm(mis: Uniform)", "Power"),
+            ("Vcm(variant: Pm)", "Bpm"),
         ] {
             let e = IntegratorConfig::from_ron(bad).unwrap_err().to_string();
             assert!(e.contains(words), "{bad}: {e}");
