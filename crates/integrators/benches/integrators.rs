@@ -1,9 +1,10 @@
 //! Integrator benchmark (BENCHMARKS.md, "Path tracing" and "Light and bidirectional tracing"):
-//! paths per CPU-second on the shipped Cornell box and caustic scenes for `Path()`, `Light()` and
-//! `Bdpt()` (no bounce limit; Russian roulette from the third bounce ends paths), on rayon pools of 1
-//! and 2 threads, with rays per second, mean rays per path, the two-thread speed-up and peak memory.
-//! A "path" is a camera path for `Path`, a light path for `Light`, a camera–light subpath pair for
-//! `Bdpt`.
+//! paths per CPU-second on the shipped Cornell box and caustic scenes for `Path()`, `Light()`,
+//! `Bdpt()` and `Vcm()` (no bounce limit; Russian roulette from the third bounce ends paths), on
+//! rayon pools of 1 and 2 threads, with rays per second, mean rays per path, the two-thread speed-up
+//! and peak memory. A "path" is a camera path for `Path`, a light path for `Light`, a camera–light
+//! subpath pair for `Bdpt` and `Vcm` (whose camera paths also merge with every light path of their
+//! pass).
 //!
 //! Run: `cargo bench -p lightlab-integrators --bench integrators`.
 
@@ -15,7 +16,7 @@ use std::path::Path;
 fn main() {
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
     // Samples per pixel of a timed render at 256 × 256: several seconds per run.
-    let integrators = [("Path()", 64), ("Light()", 64), ("Bdpt()", 8)];
+    let integrators = [("Path()", 64), ("Light()", 64), ("Bdpt()", 8), ("Vcm()", 8)];
     println!(
         "| scene | integrator | threads | paths | wall s | CPU s | M paths / CPU-s | M paths / wall-s | M rays / wall-s | rays per path | speed-up |"
     );
