@@ -24,7 +24,7 @@ fn photon_mapping_same_bits_on_one_and_two_threads() {
         "PhotonMap(photons: 30000, caustic_photons: 10000, indirect: FinalGather(rays: 2))",
         "Sppm(photons_per_pass: 10000)",
         "Ppm(photons_per_pass: 10000, update: Global)",
-        "Vcm(radius: Relative(0.05))",
+        "Vcm(radius: Relative(0.05), light_paths: 2, outliers: Some(5))",
         "Vcm(variant: Bpm, radius: Relative(0.05), layers: Bounces, max_bounces: 4)",
     ] {
         let one = render_with(1, 4, config, 3);

@@ -16,9 +16,17 @@ use lightlab_tests::{
     render, scene, z,
 };
 
-const VARIANTS: [&str; 3] = ["Vcm", "Vc", "Bpm"];
+/// The variants, and VCM with three light paths per pixel and pass.
+const VARIANTS: [&str; 5] = [
+    "variant: Vcm",
+    "variant: Vc",
+    "variant: Bpm",
+    "variant: Vcm, light_paths: 3",
+    "variant: Vc, light_paths: 3",
+];
 
-/// White furnace (ρ = 0.7, Lₑ = 0.5): every variant, with merges that carry a good part of the
+/// White furnace (ρ = 0.7, Lₑ = 0.5): every variant (and VCM and VC with three light paths per
+/// pixel), with merges that carry a good part of the
 /// image (η = π r² N ≈ 0.4), gives Lₑ·Σρᵏ for max_bounces 1 and 3, the second term alone and the
 /// whole series — 8 seeds each (t-test, 7 degrees of freedom) and within 1.5 %. A sphere's area
 /// within chord distance r is exactly πr² (Archimedes), so density estimation is unbiased here;
@@ -40,7 +48,7 @@ fn furnace_every_variant_every_bounce_limit() {
     let crit = t_critical(sidak(1e-3, (VARIANTS.len() * limits.len() * 3) as u64), 7.0);
     for variant in VARIANTS {
         for (limit, want) in limits {
-            let config = format!("Vcm(variant: {variant}, {limit}, radius: Relative(0.05))");
+            let config = format!("Vcm({variant}, {limit}, radius: Relative(0.05))");
             let (mean, se) = across_seeds(&sc, &config, 32, seeds)[0];
             for c in 0..3 {
                 let t = z(mean[c], se[c], want, 0.0);
@@ -87,24 +95,28 @@ fn plane_under_a_constant_sky() {
 
 /// `Vc` is BDPT with one light path per camera path: on the Cornell box and the caustic sphere
 /// its image agrees with `Bdpt`'s region by region (4 × 4 regions, z-test on both films'
-/// variances).
+/// variances) — also with three light paths per pixel, all splatted.
 #[test]
 fn vc_agrees_with_bdpt() {
     let cases = [
         ("cornell box", cornell(1.0, [0.0; 3], (32, 32))),
         ("caustic sphere", caustic_sphere((32, 32))),
     ];
-    let crit = z_critical(sidak(1e-3, (cases.len() * 16 * 3) as u64));
-    for (what, text) in cases {
-        let sc = scene(&text);
+    let vcs = [
+        "Vcm(variant: Vc, max_bounces: 6)",
+        "Vcm(variant: Vc, max_bounces: 6, light_paths: 3)",
+    ];
+    let crit = z_critical(sidak(1e-3, (cases.len() * vcs.len() * 16 * 3) as u64));
+    for ((what, text), config) in cases.iter().flat_map(|c| vcs.iter().map(move |v| (c, v))) {
+        let sc = scene(text);
         let bdpt = regions(&render(&sc, "Bdpt(max_bounces: 6)", 128, 1), 4);
-        let vc = regions(&render(&sc, "Vcm(variant: Vc, max_bounces: 6)", 128, 2), 4);
+        let vc = regions(&render(&sc, config, 128, 2), 4);
         for (k, (a, b)) in vc.iter().zip(&bdpt).enumerate() {
             for c in 0..3 {
                 let z = z(a.0[c], a.1[c], b.0[c], b.1[c]);
                 assert!(
                     z.abs() < crit,
-                    "{what}, region {k}, channel {c}: vc {} ± {} vs bdpt {} ± {}, z = {z:.2}",
+                    "{what}, {config}, region {k}, channel {c}: vc {} ± {} vs bdpt {} ± {}, z = {z:.2}",
                     a.0[c],
                     a.1[c],
                     b.0[c],

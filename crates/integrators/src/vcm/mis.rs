@@ -66,8 +66,12 @@ pub(crate) struct Techniques {
     /// Merges.
     pub merge: bool,
     pub heuristic: Heuristic,
-    /// η = π r² N as the heuristic sums it (0 without merges).
+    /// η = π r² N as the heuristic sums it (0 without merges), N the light paths of a pass.
     pub eta: f64,
+    /// ℓ, the light paths per pixel and pass (all splatted through the lens), as the heuristic
+    /// sums it: the sample count of the light-tracing strategies (t = 1) against the camera
+    /// path's one connection.
+    pub light_tracing: f64,
 }
 
 /// The two numbers a subpath vertex carries for the weights (module docs): `d_vcm` = a_m, the
@@ -136,10 +140,16 @@ impl Techniques {
                     + if self.merges_at(prev) { self.eta } else { 0.0 }
                     + before;
                 // Connections with s ≥ 1 are the only ones before a camera vertex or a light
-                // vertex past the origin.
+                // vertex past the origin; before the first camera vertex it is light tracing's
+                // (t = 1), with its sample count ℓ.
                 let possible = self.connect && !prev.delta;
+                let count = if !light && m == 1 {
+                    self.light_tracing
+                } else {
+                    1.0
+                };
                 Quantities {
-                    d_vcm: if possible { inv_fwd } else { 0.0 },
+                    d_vcm: if possible { count * inv_fwd } else { 0.0 },
                     d_vc: inv_fwd * q_prev,
                 }
             };
@@ -169,19 +179,25 @@ impl Techniques {
     }
 
     /// The weight of a connection whose light end has quantities `light` (`None` for s = 0) and
-    /// may merge (`light_merges`), whose camera end has `camera` and may merge, given the
+    /// may merge, whose camera end has `camera` and may merge (`None` for t = 1, the lens point
+    /// sampled by light tracing, whose sample count ℓ divides the others'), given the
     /// connection's reverse densities (`bdpt::mis::Reverse`).
     pub fn connection(
         &self,
         light: Option<(Quantities, bool)>,
-        camera: (Quantities, bool),
+        camera: Option<(Quantities, bool)>,
         rev: &crate::bdpt::Reverse,
     ) -> f32 {
         let w_light = light.map_or(0.0, |(q, merge)| {
             self.side(q, rev.light, rev.light_prev, merge)
         });
-        let w_camera = self.side(camera.0, rev.camera, rev.camera_prev, camera.1);
-        (1.0 / (w_light + 1.0 + w_camera)) as f32
+        let weight = match camera {
+            Some((q, merge)) => {
+                1.0 / (w_light + 1.0 + self.side(q, rev.camera, rev.camera_prev, merge))
+            }
+            None => 1.0 / (w_light / self.light_tracing + 1.0),
+        };
+        weight as f32
     }
 
     /// The weight of merging camera vertex z (quantities `camera`) with light vertex y
@@ -215,15 +231,16 @@ pub(super) enum Technique {
 /// The weight of technique `tech` for the full path `x`, light first (x₀ on a light, x_k the
 /// camera), from its definition (module docs; `bdpt::mis::reference_weight` for the
 /// connections): every density recomputed from the geometry, n·p of each technique summed over
-/// those the variant has that can make the path. `eta` is η = π r² N itself (not as the
-/// heuristic sums it).
+/// those the variant has that can make the path. `eta` is η = π r² N itself and `light_paths`
+/// ℓ (not as the heuristic sums them): n is ℓ for light tracing (s = k, t = 1), 1 for the other
+/// connections; a merge's n·p is η·L_j·p_j.
 #[cfg(test)]
 pub(super) fn reference_weight(
     scene: &lightlab_scene::Scene,
     x: &[PathVertex],
     tech: Technique,
     techniques: &Techniques,
-    eta: f64,
+    (eta, light_paths): (f64, f64),
 ) -> f64 {
     let k = x.len() - 1;
     let remap = |p: f32| if p != 0.0 { p as f64 } else { 1.0 };
@@ -247,6 +264,7 @@ pub(super) fn reference_weight(
         (0..i).map(light_density).product::<f64>() * (i..=k).map(camera_density).product::<f64>()
     };
     let density = |t: Technique| match t {
+        Technique::Connect(i) if i == k => light_paths * connection(i),
         Technique::Connect(i) => connection(i),
         Technique::Merge(j) => eta * light_density(j) * connection(j),
     };

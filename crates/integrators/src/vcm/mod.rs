@@ -79,6 +79,11 @@ settings! {
         /// Radius schedule exponent: pass i merges within r₁·i^((α−1)/2), 0 < α ≤ 1 (1 keeps the
         /// radius). Default 0.75.
         alpha: f32 = 0.75,
+        /// Light subpaths per pixel and pass, ℓ ≥ 1: every one is splatted through the lens
+        /// (light tracing, t = 1) and merged with, one per pixel is connected to its camera
+        /// subpath; the weights count light tracing ℓ times and merges ℓ·pixels times. Default 1
+        /// (Georgiev et al.).
+        light_paths: u32 = 1,
         /// Also write every technique as layers — connections `s{s}t{t}`, merges at the t-th
         /// camera vertex `m{t}` — MIS-weighted (they sum to the image) and `.unweighted` (the
         /// technique's own estimate of its paths). Needs `max_bounces`. Default false.
@@ -112,6 +117,12 @@ impl Validate for VcmConfig {
             return invalid(format!(
                 "alpha must lie in (0, 1] (the radius after i passes is r₁·i^((α−1)/2)), got {}",
                 self.alpha
+            ));
+        }
+        if !(1..=1024).contains(&self.light_paths) {
+            return invalid(format!(
+                "light_paths (light subpaths per pixel and pass) must be between 1 and 1024, got {}",
+                self.light_paths
             ));
         }
         if let Some(f) = self.outliers
@@ -183,12 +194,14 @@ impl Vcm {
     /// The techniques of a pass whose merges use radius `radius` with `paths` light paths.
     fn techniques(&self, radius: f32, paths: usize) -> Techniques {
         let (connect, merge) = Self::techniques_of(self.config.variant);
+        let mis = self.config.mis;
         let eta = std::f64::consts::PI * (radius as f64).powi(2) * paths as f64;
         Techniques {
             connect,
             merge,
-            heuristic: self.config.mis,
-            eta: if merge { self.config.mis.of(eta) } else { 0.0 },
+            heuristic: mis,
+            eta: if merge { mis.of(eta) } else { 0.0 },
+            light_tracing: mis.of(self.config.light_paths as f64),
         }
     }
 
@@ -312,7 +325,7 @@ impl SamplerVisitor for RenderWith<'_, '_> {
         let (mut light_paths, mut stored) = (0u64, 0u64);
         let mut begin = |i: u32, counters: &mut Counters| {
             let pass = vcm.pass(scene, seed, i, counters);
-            light_paths += pixels as u64;
+            light_paths += (pixels * cfg.light_paths as usize) as u64;
             stored += pass.light.mergeable() as u64;
             *state.write().expect("no pass panicked") = Some(pass);
         };
@@ -481,21 +494,23 @@ impl Vcm {
     /// The light side of 0-based pass `i`: its light subpaths, their index and the techniques'
     /// weights at its radius.
     fn pass(&self, scene: &Scene, seed: u64, i: u32, counters: &mut Counters) -> Pass {
-        let pixels = scene.camera.width as usize * scene.camera.height as usize;
+        let paths = scene.camera.width as usize
+            * scene.camera.height as usize
+            * self.config.light_paths as usize;
         let max = self.config.max_bounces.unwrap_or(u32::MAX - 2);
         let radius = self.radius(scene, i);
-        let techniques = self.techniques(radius, pixels);
+        let techniques = self.techniques(radius, paths);
         let light = LightPass::trace(
             scene,
             &self.walk(TransportMode::Importance, max),
             &techniques,
             (seed, i),
-            pixels,
+            paths,
             radius,
             counters,
         );
         let merge_scale =
-            (1.0 / (std::f64::consts::PI * (radius as f64).powi(2) * pixels as f64)) as f32;
+            (1.0 / (std::f64::consts::PI * (radius as f64).powi(2) * paths as f64)) as f32;
         Pass {
             light,
             techniques,
@@ -536,6 +551,8 @@ impl Vcm {
         camera_subpath(scene, &camera_walk, film, &mut sampler, camera, counters);
         techniques.subpath(camera, false, false, quantities);
         let (light, light_q) = pass.light.path(pixel);
+        let pixels = scene.camera.width as usize * scene.camera.height as usize;
+        let splat_scale = 1.0 / cfg.light_paths as f32;
         for t in 1..=camera.len() {
             let (u_light, u_point, u_lens) =
                 (connect.next_1d(), connect.next_2d(), connect.next_2d());
@@ -570,7 +587,12 @@ impl Vcm {
                     t,
                     merge: false,
                     class,
-                    unweighted: c.unweighted,
+                    // Light tracing averages the pixel's ℓ light paths.
+                    unweighted: if t == 1 {
+                        c.unweighted * splat_scale
+                    } else {
+                        c.unweighted
+                    },
                     weight,
                     raster: c.raster,
                 };
@@ -615,6 +637,53 @@ impl Vcm {
                 );
             }
         }
+        // The pixel's other light paths are splatted through the lens too (light tracing, t = 1).
+        for copy in (1..cfg.light_paths as usize).filter(|_| techniques.connect) {
+            let (light, light_q) = pass.light.path(copy * pixels + pixel);
+            let u_lens = connect.next_2d();
+            for s in 1..=light.len() {
+                // A path of s − 1 scattering vertices.
+                if s < bounces.0 as usize + 1 || s > bounces.1 as usize + 1 {
+                    continue;
+                }
+                let class = joined_class(light, camera, s, 1);
+                let Some(layer) = self.router.route(&class) else {
+                    continue;
+                };
+                let Some(c) = connection(
+                    scene,
+                    light,
+                    camera,
+                    s,
+                    1,
+                    0.0,
+                    Vec2::ZERO,
+                    u_lens,
+                    counters,
+                ) else {
+                    continue;
+                };
+                let weight = Self::connection_weight(
+                    scene,
+                    techniques,
+                    (light, light_q),
+                    (camera, quantities),
+                    c.sampled,
+                    s,
+                    1,
+                );
+                let logged = Logged {
+                    s,
+                    t: 1,
+                    merge: false,
+                    class,
+                    unweighted: c.unweighted * splat_scale,
+                    weight,
+                    raster: c.raster,
+                };
+                visit(Layer::Connect(s, 1), layer, &logged, light, &camera[..1]);
+            }
+        }
     }
 
     /// The MIS weight of connection (s, t), `sampled` the endpoint the strategy sampled anew.
@@ -654,14 +723,12 @@ impl Vcm {
             };
             (q, techniques.merges_at(v))
         });
-        let camera_end = if t == 1 {
-            (Quantities::default(), false)
-        } else {
+        let camera_end = (t > 1).then(|| {
             (
                 camera_q[t - 1],
                 s > 0 && techniques.merges_at(&camera[t - 1]),
             )
-        };
+        });
         techniques.connection(light_end, camera_end, &rev)
     }
 }

@@ -10,13 +10,14 @@ use crate::bdpt::tests::{
 use crate::bdpt::{Bdpt, Mis};
 use crate::walk::Kind;
 
-/// Every variant and heuristic, with η = π r² N (not yet as the heuristic sums it) small and
-/// large against the paths' densities.
-fn all_techniques() -> Vec<(Techniques, f64)> {
+/// Every variant and heuristic, with η = π r² N small and large against the paths' densities and
+/// one or three light paths per pixel, each with (η, ℓ) themselves (not as the heuristic sums
+/// them).
+fn all_techniques() -> Vec<(Techniques, (f64, f64))> {
     let mut out = Vec::new();
     for (connect, merge) in [(true, true), (true, false), (false, true)] {
         for heuristic in [Heuristic::Balance, Heuristic::Power] {
-            for eta in [0.02, 2.0] {
+            for (eta, light_paths) in [(0.02, 1.0), (2.0, 1.0), (0.5, 3.0)] {
                 let eta = if merge { eta } else { 0.0 };
                 out.push((
                     Techniques {
@@ -24,8 +25,9 @@ fn all_techniques() -> Vec<(Techniques, f64)> {
                         merge,
                         heuristic,
                         eta: heuristic.of(eta),
+                        light_tracing: heuristic.of(light_paths),
                     },
-                    eta,
+                    (eta, light_paths),
                 ));
             }
         }
@@ -237,7 +239,7 @@ fn production_weights_sum_to_one_and_vc_is_bdpt() {
                     "{name}, {t:?}: a path of {} light vertices has weights summing to {sum}",
                     light.len()
                 );
-                if t.merge {
+                if t.merge || t.light_tracing != 1.0 {
                     continue;
                 }
                 let (lq, cq) = (
