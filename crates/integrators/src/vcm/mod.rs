@@ -564,37 +564,17 @@ impl Vcm {
                 if s > 0 && !techniques.connect {
                     break;
                 }
-                let class = joined_class(light, camera, s, t);
-                let Some(layer) = self.router.route(&class) else {
-                    continue;
-                };
-                let Some(c) = connection(
-                    scene, light, camera, s, t, u_light, u_point, u_lens, counters,
-                ) else {
-                    continue;
-                };
-                let weight = Self::connection_weight(
+                let Some((layer, logged)) = self.connect(
                     scene,
                     techniques,
                     (light, light_q),
                     (camera, quantities),
-                    c.sampled,
-                    s,
-                    t,
-                );
-                let logged = Logged {
-                    s,
-                    t,
-                    merge: false,
-                    class,
-                    // Light tracing averages the pixel's ℓ light paths.
-                    unweighted: if t == 1 {
-                        c.unweighted * splat_scale
-                    } else {
-                        c.unweighted
-                    },
-                    weight,
-                    raster: c.raster,
+                    (s, t),
+                    (u_light, u_point, u_lens),
+                    splat_scale,
+                    counters,
+                ) else {
+                    continue;
                 };
                 visit(
                     Layer::Connect(s, t),
@@ -646,44 +626,67 @@ impl Vcm {
                 if s < bounces.0 as usize + 1 || s > bounces.1 as usize + 1 {
                     continue;
                 }
-                let class = joined_class(light, camera, s, 1);
-                let Some(layer) = self.router.route(&class) else {
-                    continue;
-                };
-                let Some(c) = connection(
-                    scene,
-                    light,
-                    camera,
-                    s,
-                    1,
-                    0.0,
-                    Vec2::ZERO,
-                    u_lens,
-                    counters,
-                ) else {
-                    continue;
-                };
-                let weight = Self::connection_weight(
+                let Some((layer, logged)) = self.connect(
                     scene,
                     techniques,
                     (light, light_q),
                     (camera, quantities),
-                    c.sampled,
-                    s,
-                    1,
-                );
-                let logged = Logged {
-                    s,
-                    t: 1,
-                    merge: false,
-                    class,
-                    unweighted: c.unweighted * splat_scale,
-                    weight,
-                    raster: c.raster,
+                    (s, 1),
+                    (0.0, Vec2::ZERO, u_lens),
+                    splat_scale,
+                    counters,
+                ) else {
+                    continue;
                 };
                 visit(Layer::Connect(s, 1), layer, &logged, light, &camera[..1]);
             }
         }
+    }
+
+    /// Connection (s, t) of `light` and `camera` with the samples `u` (light, light point, lens),
+    /// as its layer and what is logged of it (light tracing's estimate scaled by `splat_scale`,
+    /// 1/ℓ); `None` when it is routed nowhere or carries no light.
+    #[allow(clippy::too_many_arguments)]
+    fn connect(
+        &self,
+        scene: &Scene,
+        techniques: &Techniques,
+        (light, light_q): (&[PathVertex], &[Quantities]),
+        (camera, camera_q): (&[PathVertex], &[Quantities]),
+        (s, t): (usize, usize),
+        (u_light, u_point, u_lens): (f32, Vec2, Vec2),
+        splat_scale: f32,
+        counters: &mut Counters,
+    ) -> Option<(usize, Logged)> {
+        let class = joined_class(light, camera, s, t);
+        let layer = self.router.route(&class)?;
+        let c = connection(
+            scene, light, camera, s, t, u_light, u_point, u_lens, counters,
+        )?;
+        let weight = Self::connection_weight(
+            scene,
+            techniques,
+            (light, light_q),
+            (camera, camera_q),
+            c.sampled,
+            s,
+            t,
+        );
+        let logged = Logged {
+            s,
+            t,
+            merge: false,
+            class,
+            // Light tracing averages the pixel's ℓ light paths.
+            unweighted: if t == 1 {
+                c.unweighted * splat_scale
+            } else {
+                c.unweighted
+            },
+            weight,
+            raster: c.raster,
+        };
+        Some((layer, logged))
     }
 
     /// The MIS weight of connection (s, t), `sampled` the endpoint the strategy sampled anew.
