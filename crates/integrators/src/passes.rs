@@ -17,12 +17,68 @@
 
 use crate::film::{Film, PixelSums};
 use crate::paths::Router;
-use crate::render::Counters;
+use crate::render::{Counters, RenderOutput};
 use crate::sink::Sink;
 use lightlab_core::Progress;
+use lightlab_samplers::{Sampler, SamplerConfig, SamplerVisitor};
+use lightlab_scene::Scene;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
+
+/// What `Integrator::render_passes` hands on to a render loop generic over its sampler.
+pub(crate) struct RenderArgs<'a, 'b> {
+    pub scene: &'a Scene,
+    pub budget: &'a Budget,
+    pub seed: u64,
+    pub progress: &'a dyn Progress,
+    pub on_pass: &'b mut dyn FnMut(u32, &Film) -> bool,
+}
+
+/// An integrator whose render loop is monomorphised per sampler type.
+pub(crate) trait SampledRender: Sync {
+    /// The sampler the settings name.
+    fn sampler_config(&self) -> SamplerConfig;
+
+    /// The render loop, with a freshly constructed sampler to clone per pixel sample.
+    fn render_with<S: Sampler + Clone + Send + Sync + 'static>(
+        &self,
+        prototype: S,
+        args: RenderArgs,
+    ) -> RenderOutput;
+}
+
+/// Runs `integrator`'s render loop for the sampler type its settings name (constructed for the
+/// budget's sample count; a time budget's sequence starts as one sample would).
+pub(crate) fn render_sampled<I: SampledRender>(
+    integrator: &I,
+    scene: &Scene,
+    budget: &Budget,
+    seed: u64,
+    progress: &dyn Progress,
+    on_pass: &mut dyn FnMut(u32, &Film) -> bool,
+) -> RenderOutput {
+    struct With<'i, 'a, 'b, I> {
+        integrator: &'i I,
+        args: RenderArgs<'a, 'b>,
+    }
+    impl<I: SampledRender> SamplerVisitor for With<'_, '_, '_, I> {
+        type Output = RenderOutput;
+        fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
+            self.integrator.render_with(prototype, self.args)
+        }
+    }
+    let args = RenderArgs {
+        scene,
+        budget,
+        seed,
+        progress,
+        on_pass,
+    };
+    integrator
+        .sampler_config()
+        .dispatch(budget.samples_or(1), With { integrator, args })
+}
 
 /// How much work a render may do.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -13,7 +13,7 @@
 
 use crate::config::{ConfigError, Validate, invalid, settings};
 use crate::nee::{Competition, emission_found, environment_found, sample_direct};
-use crate::passes::{PassSpec, Schedule, run_passes};
+use crate::passes::{PassSpec, RenderArgs, SampledRender, Schedule, render_sampled, run_passes};
 use crate::paths::Router;
 use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::sink::Sink;
@@ -21,7 +21,7 @@ use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, from_camera};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, Ray, Rgb, TransportMode};
-use lightlab_samplers::{Sampler, SamplerConfig, SamplerVisitor};
+use lightlab_samplers::{Sampler, SamplerConfig};
 use lightlab_scene::Scene;
 use serde::{Deserialize, Serialize};
 
@@ -210,18 +210,7 @@ impl Integrator for PathTracer {
         progress: &dyn Progress,
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
-        let spp = budget.samples_or(1);
-        self.config.sampler.dispatch(
-            spp,
-            RenderWith {
-                tracer: self,
-                scene,
-                budget,
-                seed,
-                progress,
-                on_pass,
-            },
-        )
+        render_sampled(self, scene, budget, seed, progress, on_pass)
     }
 
     fn sampler(&self) -> Option<&SamplerConfig> {
@@ -240,28 +229,24 @@ impl Integrator for PathTracer {
     }
 }
 
-/// The render loop for the sampler type the configuration names (monomorphised per sampler).
-struct RenderWith<'a, 'b> {
-    tracer: &'a PathTracer,
-    scene: &'a Scene,
-    budget: &'a Budget,
-    seed: u64,
-    progress: &'a dyn Progress,
-    on_pass: &'b mut dyn FnMut(u32, &Film) -> bool,
-}
+impl SampledRender for PathTracer {
+    fn sampler_config(&self) -> SamplerConfig {
+        self.config.sampler
+    }
 
-impl SamplerVisitor for RenderWith<'_, '_> {
-    type Output = RenderOutput;
-
-    fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
-        let RenderWith {
-            tracer,
+    fn render_with<S: Sampler + Clone + Send + Sync + 'static>(
+        &self,
+        prototype: S,
+        args: RenderArgs,
+    ) -> RenderOutput {
+        let tracer = self;
+        let RenderArgs {
             scene,
             budget,
             seed,
             progress,
             on_pass,
-        } = self;
+        } = args;
         let (width, height) = (scene.camera.width, scene.camera.height);
         let spec = PassSpec {
             width,

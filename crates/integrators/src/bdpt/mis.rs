@@ -140,26 +140,13 @@ pub(crate) fn reverse_densities(
 #[cfg(test)]
 pub(super) fn reference_weight(scene: &Scene, x: &[PathVertex], s: usize, heuristic: Mis) -> f64 {
     let k = x.len() - 1;
-    let remap = |p: f32| if p != 0.0 { p as f64 } else { 1.0 };
-    let light_density = |j: usize| match j {
-        0 => remap(x[0].pdf_light_origin(scene)),
-        _ => remap(x[j - 1].pdf(scene, j.checked_sub(2).map(|i| &x[i]), &x[j])),
-    };
-    let camera_density = |j: usize| match j {
-        _ if j == k => 1.0,
-        _ => remap(x[j + 1].pdf(scene, x.get(j + 2), &x[j])),
-    };
-    let delta_light = x[0]
-        .light()
-        .is_some_and(|l| scene.lights[l as usize].is_delta());
+    let densities = PathDensities::new(scene, x);
     // x₀ (the light) and x_k (the lens) are never delta surfaces.
     let possible = |i: usize| match i {
-        0 => !delta_light && !x[0].delta,
+        0 => !densities.delta_light && !x[0].delta,
         _ => !x[i - 1].delta && !x[i].delta,
     };
-    let density = |i: usize| {
-        (0..i).map(light_density).product::<f64>() * (i..=k).map(camera_density).product::<f64>()
-    };
+    let density = |i: usize| densities.strategy(i);
     let term = |i: usize| match heuristic {
         Mis::Balance => density(i),
         Mis::Power => density(i).powi(2),
@@ -168,4 +155,50 @@ pub(super) fn reference_weight(scene: &Scene, x: &[PathVertex], s: usize, heuris
     };
     let total: f64 = (0..=k).filter(|&i| possible(i)).map(term).sum();
     term(s) / total
+}
+
+/// The area densities with which the light side (L_j) and the camera side (C_j) generate each
+/// vertex x_j of a full path, light first, recomputed from the geometry; a density through a
+/// delta vertex enters as 1 (see `reference_weight`), and C_k = 1 (the lens point).
+#[cfg(test)]
+pub(crate) struct PathDensities {
+    /// L_j.
+    pub light: Vec<f64>,
+    /// C_j.
+    camera: Vec<f64>,
+    /// Whether x₀ is on a point or spot light.
+    pub delta_light: bool,
+}
+
+#[cfg(test)]
+impl PathDensities {
+    pub fn new(scene: &Scene, x: &[PathVertex]) -> PathDensities {
+        let k = x.len() - 1;
+        let remap = |p: f32| if p != 0.0 { p as f64 } else { 1.0 };
+        let light = (0..=k)
+            .map(|j| match j {
+                0 => remap(x[0].pdf_light_origin(scene)),
+                _ => remap(x[j - 1].pdf(scene, j.checked_sub(2).map(|i| &x[i]), &x[j])),
+            })
+            .collect();
+        let camera = (0..=k)
+            .map(|j| match j {
+                _ if j == k => 1.0,
+                _ => remap(x[j + 1].pdf(scene, x.get(j + 2), &x[j])),
+            })
+            .collect();
+        let delta_light = x[0]
+            .light()
+            .is_some_and(|l| scene.lights[l as usize].is_delta());
+        PathDensities {
+            light,
+            camera,
+            delta_light,
+        }
+    }
+
+    /// The density of the path sampled with i light vertices: Π_{j<i} L_j · Π_{j≥i} C_j.
+    pub fn strategy(&self, i: usize) -> f64 {
+        self.light[..i].iter().product::<f64>() * self.camera[i..].iter().product::<f64>()
+    }
 }

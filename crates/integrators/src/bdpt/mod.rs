@@ -41,12 +41,14 @@ pub(crate) mod tests;
 
 pub use connect::Contribution;
 pub(crate) use connect::{connection, joined_class};
+#[cfg(test)]
+pub(crate) use mis::PathDensities;
 pub(crate) use mis::{Reverse, reverse_densities};
 pub(crate) use subpaths::{camera_subpath, light_subpath};
 
 use crate::config::{ConfigError, Validate, invalid, settings};
 use crate::film::Film;
-use crate::passes::{PassSpec, Schedule, run_passes};
+use crate::passes::{PassSpec, RenderArgs, SampledRender, Schedule, render_sampled, run_passes};
 use crate::paths::Router;
 use crate::provenance::Outlier;
 use crate::provenance::SplatSource;
@@ -54,7 +56,7 @@ use crate::render::{Counters, PixelVariance, Technique};
 use crate::walk::{Directions, PathVertex, Walk};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use lightlab_core::{Progress, TransportMode};
-use lightlab_samplers::{Independent, Sampler, SamplerConfig, SamplerVisitor};
+use lightlab_samplers::{Independent, Sampler, SamplerConfig};
 use lightlab_scene::Scene;
 use serde::{Deserialize, Serialize};
 
@@ -191,32 +193,12 @@ impl Integrator for Bdpt {
         progress: &dyn Progress,
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
-        let spp = budget.samples_or(1);
-        self.config.sampler.dispatch(
-            spp,
-            RenderWith {
-                bdpt: self,
-                scene,
-                budget,
-                seed,
-                progress,
-                on_pass,
-            },
-        )
+        render_sampled(self, scene, budget, seed, progress, on_pass)
     }
 
     fn sampler(&self) -> Option<&SamplerConfig> {
         Some(&self.config.sampler)
     }
-}
-
-struct RenderWith<'a, 'b> {
-    bdpt: &'a Bdpt,
-    scene: &'a Scene,
-    budget: &'a Budget,
-    seed: u64,
-    progress: &'a dyn Progress,
-    on_pass: &'b mut dyn FnMut(u32, &Film) -> bool,
 }
 
 /// What one work item keeps besides its contributions: the subpath buffers it reuses, and the
@@ -230,18 +212,24 @@ struct WorkItem {
     splat_sources: Vec<SplatSource>,
 }
 
-impl SamplerVisitor for RenderWith<'_, '_> {
-    type Output = RenderOutput;
+impl SampledRender for Bdpt {
+    fn sampler_config(&self) -> SamplerConfig {
+        self.config.sampler
+    }
 
-    fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
-        let RenderWith {
-            bdpt,
+    fn render_with<S: Sampler + Clone + Send + Sync + 'static>(
+        &self,
+        prototype: S,
+        args: RenderArgs,
+    ) -> RenderOutput {
+        let bdpt = self;
+        let RenderArgs {
             scene,
             budget,
             seed,
             progress,
             on_pass,
-        } = self;
+        } = args;
         let cfg = &bdpt.config;
         let (width, height) = (scene.camera.width, scene.camera.height);
         let router = &bdpt.router;

@@ -243,30 +243,16 @@ pub(super) fn reference_weight(
     (eta, light_paths): (f64, f64),
 ) -> f64 {
     let k = x.len() - 1;
-    let remap = |p: f32| if p != 0.0 { p as f64 } else { 1.0 };
-    let light_density = |j: usize| match j {
-        0 => remap(x[0].pdf_light_origin(scene)),
-        _ => remap(x[j - 1].pdf(scene, j.checked_sub(2).map(|i| &x[i]), &x[j])),
-    };
-    let camera_density = |j: usize| match j {
-        _ if j == k => 1.0,
-        _ => remap(x[j + 1].pdf(scene, x.get(j + 2), &x[j])),
-    };
-    let delta_light = x[0]
-        .light()
-        .is_some_and(|l| scene.lights[l as usize].is_delta());
+    let densities = crate::bdpt::PathDensities::new(scene, x);
     let possible = |t: Technique| match t {
-        Technique::Connect(0) => !delta_light && !x[0].delta,
+        Technique::Connect(0) => !densities.delta_light && !x[0].delta,
         Technique::Connect(i) => techniques.connect && !x[i - 1].delta && !x[i].delta,
         Technique::Merge(j) => techniques.merge && !x[j].delta,
     };
-    let connection = |i: usize| {
-        (0..i).map(light_density).product::<f64>() * (i..=k).map(camera_density).product::<f64>()
-    };
     let density = |t: Technique| match t {
-        Technique::Connect(i) if i == k => light_paths * connection(i),
-        Technique::Connect(i) => connection(i),
-        Technique::Merge(j) => eta * light_density(j) * connection(j),
+        Technique::Connect(i) if i == k => light_paths * densities.strategy(i),
+        Technique::Connect(i) => densities.strategy(i),
+        Technique::Merge(j) => eta * densities.light[j] * densities.strategy(j),
     };
     let term = |t: Technique| techniques.heuristic.of(density(t));
     let all = (0..=k)

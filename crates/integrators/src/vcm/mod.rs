@@ -44,7 +44,9 @@ pub use mis::Heuristic;
 use crate::bdpt::{Reverse, camera_subpath, connection, joined_class, reverse_densities};
 use crate::config::{ConfigError, Validate, invalid, settings};
 use crate::film::Film;
-use crate::passes::{PassSpec, Schedule, run_progressive_passes};
+use crate::passes::{
+    PassSpec, RenderArgs, SampledRender, Schedule, render_sampled, run_progressive_passes,
+};
 use crate::paths::Router;
 use crate::photon::config::{Length, check_radius};
 use crate::provenance::{Logged, Outlier, SplatSource};
@@ -53,7 +55,7 @@ use crate::walk::{Directions, PathVertex, Walk};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, TransportMode};
-use lightlab_samplers::{Independent, Sampler, SamplerConfig, SamplerVisitor};
+use lightlab_samplers::{Independent, Sampler, SamplerConfig};
 use lightlab_scene::Scene;
 use mis::{Quantities, Techniques};
 use pass::LightPass;
@@ -237,18 +239,7 @@ impl Integrator for Vcm {
         progress: &dyn Progress,
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
-        let spp = budget.samples_or(1);
-        self.config.sampler.dispatch(
-            spp,
-            RenderWith {
-                vcm: self,
-                scene,
-                budget,
-                seed,
-                progress,
-                on_pass,
-            },
-        )
+        render_sampled(self, scene, budget, seed, progress, on_pass)
     }
 
     fn sampler(&self) -> Option<&SamplerConfig> {
@@ -265,15 +256,6 @@ impl Integrator for Vcm {
 
 /// Seed offset of the connection samples' stream.
 const CONNECT_STREAM: u64 = 0x7663_6d5f_636f_6e6e;
-
-struct RenderWith<'a, 'b> {
-    vcm: &'a Vcm,
-    scene: &'a Scene,
-    budget: &'a Budget,
-    seed: u64,
-    progress: &'a dyn Progress,
-    on_pass: &'b mut dyn FnMut(u32, &Film) -> bool,
-}
 
 /// What every pixel of a pass shares.
 struct Pass {
@@ -294,18 +276,24 @@ struct WorkItem {
     splat_sources: Vec<SplatSource>,
 }
 
-impl SamplerVisitor for RenderWith<'_, '_> {
-    type Output = RenderOutput;
+impl SampledRender for Vcm {
+    fn sampler_config(&self) -> SamplerConfig {
+        self.config.sampler
+    }
 
-    fn visit<S: Sampler + Clone + Send + Sync + 'static>(self, prototype: S) -> RenderOutput {
-        let RenderWith {
-            vcm,
+    fn render_with<S: Sampler + Clone + Send + Sync + 'static>(
+        &self,
+        prototype: S,
+        args: RenderArgs,
+    ) -> RenderOutput {
+        let vcm = self;
+        let RenderArgs {
             scene,
             budget,
             seed,
             progress,
             on_pass,
-        } = self;
+        } = args;
         let cfg = &vcm.config;
         let router = &vcm.router;
         let (width, height) = (scene.camera.width, scene.camera.height);
