@@ -4,8 +4,8 @@ use crate::progress::{Bar, Unit};
 use clap::Args;
 use indicatif::MultiProgress;
 use lightlab_experiments::desc::load_experiment;
-use lightlab_experiments::report::plot_from_csv;
-use lightlab_experiments::runner::{RunOptions, merge, output_dir, run_experiment};
+use lightlab_experiments::report::{finished_runs, plot_from_csv, write_report};
+use lightlab_experiments::runner::{RunOptions, merge, output_dir, run_experiment, write_source};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -116,7 +116,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         outcome.skipped
     );
     println!(
-        "results in {}: runs.csv, summary.json, *.svg, runs/",
+        "results in {}: index.html (the report), runs.csv, summary.json, *.svg, runs/",
         outcome.out_dir.display()
     );
     Ok(())
@@ -136,6 +136,58 @@ pub fn plot(args: PlotArgs) -> Result<(), String> {
         files.len(),
         args.dir.display(),
         files.join(", ")
+    );
+    Ok(())
+}
+
+/// Rebuild an experiment's report (index.html), tables and plots from the runs on disk, without
+/// rendering anything.
+#[derive(Args)]
+pub struct ReportArgs {
+    /// The experiment file (its results are RESULTS/<name>/).
+    experiment: PathBuf,
+    /// Root directory of results.
+    #[arg(long, default_value = "results")]
+    results: PathBuf,
+}
+
+pub fn report(args: ReportArgs) -> Result<(), String> {
+    let desc = load_experiment(&args.experiment).map_err(|e| e.to_string())?;
+    let out_dir = output_dir(&desc, &args.results);
+    let runs = finished_runs(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    if runs.is_empty() {
+        return Err(format!(
+            "{} holds no finished runs of experiment {:?}: run it first (lightlab run {})",
+            out_dir.display(),
+            desc.name,
+            args.experiment.display()
+        ));
+    }
+    // Rebuilding without the images would drop bias², variance and the mean images from
+    // summary.json: refuse instead (results committed without their EXR files are like that).
+    let missing: Vec<String> = runs
+        .iter()
+        .map(|r| out_dir.join("runs").join(&r.id).join("image.exr"))
+        .chain(runs.iter().map(|r| r.reference.clone()))
+        .filter(|p| !p.is_file())
+        .map(|p| p.display().to_string())
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    if !missing.is_empty() {
+        return Err(format!(
+            "the report needs every run's image and its reference; {} file(s) missing (first: {}): \
+             nothing was rewritten (rerun the experiment: finished runs are kept with their images)",
+            missing.len(),
+            missing[0]
+        ));
+    }
+    write_source(&args.experiment, &out_dir)?;
+    write_report(&out_dir).map_err(|e| e.to_string())?;
+    println!(
+        "wrote {} from {} runs (and runs.csv, summary.json, the plots)",
+        out_dir.join("index.html").display(),
+        runs.len()
     );
     Ok(())
 }

@@ -124,6 +124,7 @@ fn every_command_has_help() {
         vec!["render", "--help"],
         vec!["run", "--help"],
         vec!["plot", "--help"],
+        vec!["report", "--help"],
         vec!["merge", "--help"],
     ] {
         let out = lightlab().args(&args).output().unwrap();

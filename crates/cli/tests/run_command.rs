@@ -305,3 +305,58 @@ fn interrupted_run_says_how_to_resume() {
     );
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn report_rebuilds_from_disk_and_refuses_without_images() {
+    let dir = temp_dir("report");
+    std::fs::write(dir.join("s.ron"), SCENE).unwrap();
+    std::fs::write(dir.join("e.ron"), EXPERIMENT).unwrap();
+    let none = lightlab(&["report", "e.ron", "--results", "res"], &dir);
+    let stderr = String::from_utf8_lossy(&none.stderr);
+    assert!(
+        !none.status.success() && stderr.contains("no finished runs"),
+        "{stderr}"
+    );
+    assert!(
+        lightlab(&["run", "e.ron", "--results", "res"], &dir)
+            .status
+            .success()
+    );
+    let page = dir.join("res/cli/index.html");
+    std::fs::remove_file(&page).unwrap();
+    let out = lightlab(&["report", "e.ron", "--results", "res"], &dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        std::fs::read_to_string(&page)
+            .unwrap()
+            .contains("\"runs\":4")
+    );
+
+    // Without a run's image the summary would lose bias² and variance: nothing is rewritten.
+    let runs = dir.join("res/cli/runs");
+    let run = std::fs::read_dir(&runs)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    std::fs::remove_file(run.join("image.exr")).unwrap();
+    let summary = std::fs::read(dir.join("res/cli/summary.json")).unwrap();
+    let refused = lightlab(&["report", "e.ron", "--results", "res"], &dir);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success()
+            && stderr.contains("1 file(s) missing")
+            && stderr.contains("image.exr"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read(dir.join("res/cli/summary.json")).unwrap(),
+        summary
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -5,6 +5,7 @@
 //! SVG plots per scene of MSE against samples, MSE against time, and efficiency.
 
 use crate::atomic::write_atomic;
+use crate::html;
 use crate::image_io::{RgbLayer, write_exr};
 use crate::metrics::{Efficiency, Fit, REL_EPSILON, bias_variance, efficiency, fit_power_law};
 use crate::plot::{LinePlot, Series, render_svg};
@@ -159,13 +160,14 @@ fn mean_se(xs: &[f64]) -> (f64, f64) {
 }
 
 #[derive(Serialize)]
-struct SettingSummary {
+pub(crate) struct SettingSummary {
     scene: String,
-    method: String,
-    setting: String,
+    pub method: String,
+    pub setting: String,
     trials: usize,
     spp: f64,
     wall_seconds: f64,
+    rays: f64,
     mse: (f64, f64),
     rel_mse: (f64, f64),
     mae: (f64, f64),
@@ -185,7 +187,7 @@ struct SettingSummary {
 }
 
 #[derive(Serialize)]
-struct ClassSummary {
+pub(crate) struct ClassSummary {
     class: String,
     mse: (f64, f64),
     rel_mse: (f64, f64),
@@ -306,6 +308,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             trials: rs.len(),
             spp: get(|r| r.spp as f64).0,
             wall_seconds: get(|r| r.wall_seconds).0,
+            rays: get(|r| r.rays as f64).0,
             mse: get(|r| r.errors.mse),
             rel_mse: get(|r| r.errors.rel_mse),
             mae: get(|r| r.errors.mae),
@@ -357,7 +360,65 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
         serde_json::to_string_pretty(&summary)
             .map_err(io::Error::other)?
             .as_bytes(),
+    )?;
+
+    // The HTML report: per scene with a reference, its settings in budget order.
+    let mut scenes: Vec<(String, crate::metrics::Image, Vec<html::Entry>)> = Vec::new();
+    for (((scene, _, _), rs), summary) in groups.iter().zip(&settings) {
+        let Some(Some(reference)) = references.get(&rs[0].reference) else {
+            continue;
+        };
+        let entry = html::Entry {
+            summary,
+            image: summary
+                .image
+                .as_ref()
+                .and_then(|f| load_image(&out_dir.join(f)).ok()),
+        };
+        match scenes.iter_mut().find(|s| &s.0 == scene) {
+            Some(s) => s.2.push(entry),
+            None => scenes.push((scene.clone(), reference.clone(), vec![entry])),
+        }
+    }
+    for (_, _, entries) in &mut scenes {
+        entries.sort_by(|a, b| {
+            budget_key(&a.summary.setting).total_cmp(&budget_key(&b.summary.setting))
+        });
+    }
+    let distinct = |f: fn(&RunRecord) -> &str| {
+        let mut v: Vec<String> = records
+            .iter()
+            .map(f)
+            .filter(|s| !s.is_empty())
+            .map(String::from)
+            .collect();
+        v.sort();
+        v.dedup();
+        v
+    };
+    let provenance = html::Provenance {
+        runs: records.len(),
+        versions: distinct(|r| &r.lightlab_version),
+        machines: distinct(|r| &r.machine),
+    };
+    html::write_html(
+        out_dir,
+        &provenance,
+        &scenes,
+        &summary["convergence"],
+        &plots.files,
     )
+}
+
+/// The numeric part of a setting's first `key=value` (its budget, as the expansion names it
+/// first), for ordering; settings without one first.
+fn budget_key(setting: &str) -> f64 {
+    setting
+        .split(',')
+        .next()
+        .and_then(|kv| kv.split('=').nth(1))
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(f64::NEG_INFINITY)
 }
 
 /// A series' legend with its fitted slope and the points the fit left out.

@@ -105,6 +105,9 @@ pub struct RunRecord {
     #[serde(default)]
     pub pixel_limit: PixelLimit,
     pub lightlab_version: String,
+    /// The machine it ran on (CPU model, logical cores, operating system).
+    #[serde(default)]
+    pub machine: String,
 }
 
 /// Summary of one `lightlab run`.
@@ -114,6 +117,13 @@ pub struct Outcome {
     pub ran: usize,
     pub skipped: usize,
     pub warnings: Vec<String>,
+}
+
+/// Copies the experiment file beside its results (`experiment.ron`), for the report to show.
+pub fn write_source(path: &Path, out_dir: &Path) -> Result<(), String> {
+    let text = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    write_atomic(&out_dir.join("experiment.ron"), &text)
+        .map_err(|e| format!("{}: {e}", out_dir.display()))
 }
 
 /// Loads a scene with the experiment's resolution override; returns it with its text.
@@ -173,6 +183,7 @@ pub fn run_experiment(
                 .map_err(|e| format!("{}: {e}", out_dir.display()))?;
         }
     }
+    write_source(path, &out_dir)?;
     // A scene, loaded once, with its reference (found in the cache, rendered, or read).
     let prepare =
         |run: &RunSpec, warnings: &mut Vec<String>| -> Result<(Scene, Reference), String> {
@@ -305,6 +316,7 @@ pub fn run_experiment(
             reference: reference.path.clone(),
             pixel_limit: out.stats.pixel_limit,
             lightlab_version: env!("CARGO_PKG_VERSION").into(),
+            machine: crate::html::machine(),
         };
         let dir = run_dir(&out_dir, run);
         write_exr(
@@ -441,6 +453,7 @@ pub fn merge(
     let json = serde_json::to_string_pretty(&identity).map_err(|e| e.to_string())?;
     write_atomic(&out_dir.join("experiment.json"), json.as_bytes())
         .map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    write_source(path, out_dir)?;
     let mut copied = 0;
     for (id, from) in &sources {
         let to = out_dir.join("runs").join(id);

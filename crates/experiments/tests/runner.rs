@@ -149,6 +149,9 @@ fn merged_shards_equal_the_unsharded_run() {
             .count()
     };
     assert_eq!(csv(&merged), csv(&dir.join("all/tiny")));
+    // The merge rebuilds the report, which shows the experiment file.
+    let page = std::fs::read_to_string(merged.join("index.html")).unwrap();
+    assert!(page.contains("\"runs\":12") && page.contains("name: \\\"tiny\\\""));
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -1,0 +1,250 @@
+//! `index.html`: the experiment report to look at, one self-contained file that opens from disk
+//! in any browser (no server, no network). Per scene a flip book of the reference and every
+//! setting's mean image (click, number keys, synchronised zoom and pan, exposure), signed- and
+//! relative-error false colour with colour bars, the sortable table of `summary.json` with
+//! speed-ups against a chosen baseline, the convergence fits and the plots; then what each number
+//! means and the experiment file.
+//!
+//! Images are embedded as half floats (RGB, little endian, base64): the page tone-maps and
+//! computes the error maps itself. Half floats round to 2⁻¹¹ relative, so the error maps are
+//! exact to that (a display, not a measurement: the table's numbers come from the f32 images).
+
+use crate::atomic::write_atomic;
+use crate::metrics::Image;
+use crate::report::SettingSummary;
+use base64::Engine;
+use serde::Serialize;
+use std::io;
+use std::path::Path;
+
+const TEMPLATE: &str = include_str!("html/report.html");
+
+/// One line per metric, as experiments/README.md defines them.
+const HELP: [(&str, &str); 12] = [
+    (
+        "MSE",
+        "mean over pixels and channels of (x − r)² − v_r: the reference's own noise v_r is not charged to the method; mean over trials ± standard error",
+    ),
+    ("relMSE", "mean of ((x − r)² − v_r) / (r² + 0.01)"),
+    (
+        "bias²",
+        "(x̄ − r)² − variance/T − v_r averaged over pixels, from the T trials' images (can be slightly negative from noise)",
+    ),
+    (
+        "variance",
+        "variance of one trial's pixel value across the trials, averaged over pixels",
+    ),
+    (
+        "efficiency",
+        "1 / (mean MSE × mean seconds): a ratio of means, not the mean of per-trial ratios",
+    ),
+    (
+        "relMSE × t",
+        "inefficiency: mean relMSE × mean seconds; the speed-up against the baseline is its ratio",
+    ),
+    (
+        "spp / passes",
+        "samples per pixel (passes for progressive photon mapping and VCM) reached, mean over trials",
+    ),
+    (
+        "seconds",
+        "wall-clock seconds of the render, mean over trials (time budgets stop at the pass boundary nearest the budget)",
+    ),
+    ("rays", "rays traced, mean over trials"),
+    (
+        "non-finite",
+        "samples whose value was NaN or infinite: counted and left out of the image, summed over trials",
+    ),
+    (
+        "relMSE per class",
+        "the error of a path-class layer (the experiment's classes, then the rest) against the same layer of the reference",
+    ),
+    (
+        "slope",
+        "weighted least-squares fit of ln MSE against ln spp, with its 95 % interval (Birge-scaled) and χ²/dof; points with MSE ≤ 0 are left out",
+    ),
+];
+
+#[derive(Serialize)]
+struct Data<'a> {
+    runs: usize,
+    version: String,
+    machine: String,
+    source: Option<String>,
+    scenes: Vec<Scene<'a>>,
+    fits: &'a serde_json::Value,
+    plots: Vec<Plot>,
+    help: &'a [(&'a str, &'a str)],
+}
+
+#[derive(Serialize)]
+struct Scene<'a> {
+    name: &'a str,
+    width: u32,
+    height: u32,
+    reference: String,
+    settings: Vec<Setting<'a>>,
+}
+
+#[derive(Serialize)]
+struct Setting<'a> {
+    label: &'a str,
+    /// The setting's budget and swept values ("as configured" for none).
+    budget: String,
+    #[serde(flatten)]
+    summary: &'a SettingSummary,
+    /// The mean image, encoded (none when its size differs from the reference's).
+    pixels: Option<String>,
+}
+
+#[derive(Serialize)]
+struct Plot {
+    scene: String,
+    svg: String,
+}
+
+/// What one setting brings to the report: its summary and mean image.
+pub(crate) struct Entry<'a> {
+    pub summary: &'a SettingSummary,
+    pub image: Option<Image>,
+}
+
+/// The report's facts about the runs: their number, Lightlab versions and machines.
+pub(crate) struct Provenance {
+    pub runs: usize,
+    pub versions: Vec<String>,
+    pub machines: Vec<String>,
+}
+
+/// Writes `out_dir/index.html` from the settings (grouped by scene, in order), each scene's
+/// reference, the fits and plot files of `summary.json`.
+pub(crate) fn write_html(
+    out_dir: &Path,
+    provenance: &Provenance,
+    scenes: &[(String, Image, Vec<Entry>)],
+    fits: &serde_json::Value,
+    plot_files: &[String],
+) -> io::Result<()> {
+    let plots = plot_files
+        .iter()
+        .filter_map(|file| {
+            let svg = std::fs::read_to_string(out_dir.join(file)).ok()?;
+            let svg = match svg.find("<svg") {
+                Some(i) => svg[i..].to_string(),
+                None => svg,
+            };
+            let scene = scenes
+                .iter()
+                .map(|s| s.0.as_str())
+                .filter(|s| file.starts_with(&format!("{s}-")))
+                .max_by_key(|s| s.len())?;
+            Some(Plot {
+                scene: scene.to_string(),
+                svg,
+            })
+        })
+        .collect();
+    let data = Data {
+        runs: provenance.runs,
+        version: join_or(&provenance.versions, "unknown"),
+        machine: join_or(&provenance.machines, "machine not recorded"),
+        source: std::fs::read_to_string(out_dir.join("experiment.ron")).ok(),
+        scenes: scenes
+            .iter()
+            .map(|(name, reference, entries)| Scene {
+                name,
+                width: reference.width,
+                height: reference.height,
+                reference: encode(&reference.mean),
+                settings: entries
+                    .iter()
+                    .map(|e| Setting {
+                        label: &e.summary.method,
+                        budget: if e.summary.setting.is_empty() {
+                            "as configured".into()
+                        } else {
+                            e.summary.setting.clone()
+                        },
+                        summary: e.summary,
+                        pixels: e
+                            .image
+                            .as_ref()
+                            .filter(|i| i.mean.len() == reference.mean.len())
+                            .map(|i| encode(&i.mean)),
+                    })
+                    .collect(),
+            })
+            .collect(),
+        fits,
+        plots,
+        help: &HELP,
+    };
+    let json = serde_json::to_string(&data).map_err(io::Error::other)?;
+    let title = out_dir
+        .file_name()
+        .map_or("experiment".into(), |n| n.to_string_lossy().into_owned());
+    // Inside <script>, "</" would end the element; JSON allows "<\/" for it.
+    let page = TEMPLATE
+        .replace("@TITLE@", &escape(&title))
+        .replace("@DATA@", &json.replace("</", "<\\/"));
+    write_atomic(&out_dir.join("index.html"), page.as_bytes())
+}
+
+fn join_or(items: &[String], otherwise: &str) -> String {
+    if items.is_empty() {
+        otherwise.into()
+    } else {
+        items.join("; ")
+    }
+}
+
+/// RGB pixels as little-endian half floats, base64.
+fn encode(pixels: &[[f32; 3]]) -> String {
+    let bytes: Vec<u8> = pixels
+        .iter()
+        .flatten()
+        .flat_map(|&v| half::f16::from_f32(v).to_le_bytes())
+        .collect();
+    base64::engine::general_purpose::STANDARD.encode(bytes)
+}
+
+fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// This machine, as a report names it: CPU model, logical cores, operating system.
+pub fn machine() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.into());
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    format!("{cpu}, {cores} logical cores, {}", std::env::consts::OS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn half_floats_round_trip_to_their_precision() {
+        let values = [[0.0, 1.0, -2.5], [1e-3, 65504.0, 0.3333]];
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(encode(&values))
+            .unwrap();
+        let back: Vec<f32> = bytes
+            .chunks(2)
+            .map(|c| half::f16::from_le_bytes([c[0], c[1]]).to_f32())
+            .collect();
+        for (a, b) in values.iter().flatten().zip(&back) {
+            assert!((a - b).abs() <= a.abs() * 2f32.powi(-11), "{a} → {b}");
+        }
+    }
+}
