@@ -1,7 +1,7 @@
 //! `index.html`: the experiment report to look at, one self-contained file that opens from disk
 //! in any browser (no server, no network). Per scene a flip book of the reference and every
 //! setting's mean image (click, number keys, synchronised zoom and pan, exposure), signed- and
-//! relative-error false colour with colour bars, the sortable table of `summary.json` with
+//! relative-error false colour and the ꟻLIP map (`perceptual`) with colour bars, the sortable table of `summary.json` with
 //! speed-ups against a chosen baseline, the convergence fits and the plots; then what each number
 //! means and the experiment file.
 //!
@@ -20,7 +20,7 @@ use std::path::Path;
 const TEMPLATE: &str = include_str!("html/report.html");
 
 /// One line per metric, as experiments/README.md defines them.
-const HELP: [(&str, &str); 12] = [
+const HELP: [(&str, &str); 13] = [
     (
         "MSE",
         "mean over pixels and channels of (x − r)² − v_r: the reference's own noise v_r is not charged to the method; mean over trials ± standard error",
@@ -51,6 +51,10 @@ const HELP: [(&str, &str); 12] = [
         "wall-clock seconds of the render, mean over trials (time budgets stop at the pass boundary nearest the budget)",
     ),
     ("rays", "rays traced, mean over trials"),
+    (
+        "ꟻLIP",
+        "perceptual error of the mean image against the reference (Andersson et al. 2020), both tone-mapped to 8-bit sRGB at exposure 0, 67 pixels per degree; mean of the per-pixel map in [0, 1]",
+    ),
     (
         "non-finite",
         "samples whose value was NaN or infinite: counted and left out of the image, summed over trials",
@@ -95,6 +99,8 @@ struct Setting<'a> {
     summary: &'a SettingSummary,
     /// The mean image, encoded (none when its size differs from the reference's).
     pixels: Option<String>,
+    /// Its ꟻLIP map, 8 bits per pixel (0–255 for 0–1), base64.
+    flip_map: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -107,6 +113,8 @@ struct Plot {
 pub(crate) struct Entry<'a> {
     pub summary: &'a SettingSummary,
     pub image: Option<Image>,
+    /// Its ꟻLIP map against the reference.
+    pub flip_map: Option<Vec<f32>>,
 }
 
 /// The report's facts about the runs: their number, Lightlab versions and machines.
@@ -171,6 +179,13 @@ pub(crate) fn write_html(
                             .as_ref()
                             .filter(|i| i.mean.len() == reference.mean.len())
                             .map(|i| encode(&i.mean)),
+                        flip_map: e.flip_map.as_ref().map(|m| {
+                            let bytes: Vec<u8> = m
+                                .iter()
+                                .map(|&e| (e.clamp(0.0, 1.0) * 255.0).round() as u8)
+                                .collect();
+                            base64::engine::general_purpose::STANDARD.encode(bytes)
+                        }),
                     })
                     .collect(),
             })

@@ -184,15 +184,9 @@ fn srgb_encode(x: f32) -> f32 {
     }
 }
 
-/// Writes an 8-bit sRGB preview: linear values scaled by 2^`exposure`, clipped to [0, 1], encoded
-/// with the sRGB curve. Non-finite values show as magenta so they cannot hide.
-pub fn write_png(
-    path: &Path,
-    width: u32,
-    height: u32,
-    pixels: &[[f32; 3]],
-    exposure: f32,
-) -> Result<(), ImageError> {
+/// 8-bit sRGB of linear values scaled by 2^`exposure` and clipped to [0, 1] (RGB, tightly packed);
+/// non-finite pixels are magenta.
+pub fn to_srgb8(pixels: &[[f32; 3]], exposure: f32) -> Vec<u8> {
     let scale = exposure.exp2();
     let mut data = Vec::with_capacity(pixels.len() * 3);
     for p in pixels {
@@ -202,6 +196,19 @@ pub fn write_png(
             data.extend([255, 0, 255]);
         }
     }
+    data
+}
+
+/// Writes an 8-bit sRGB preview: linear values scaled by 2^`exposure`, clipped to [0, 1], encoded
+/// with the sRGB curve. Non-finite values show as magenta so they cannot hide.
+pub fn write_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+    exposure: f32,
+) -> Result<(), ImageError> {
+    let data = to_srgb8(pixels, exposure);
     let io = |source: std::io::Error| ImageError::Io {
         path: path.display().to_string(),
         source,

@@ -8,6 +8,7 @@ use crate::atomic::write_atomic;
 use crate::html;
 use crate::image_io::{RgbLayer, write_exr};
 use crate::metrics::{Efficiency, Fit, REL_EPSILON, bias_variance, efficiency, fit_power_law};
+use crate::perceptual;
 use crate::plot::{LinePlot, Series, render_svg};
 use crate::reference::load_image;
 use crate::runner::RunRecord;
@@ -177,6 +178,8 @@ pub(crate) struct SettingSummary {
     rel_efficiency: Efficiency,
     bias2: Option<f64>,
     variance: Option<f64>,
+    /// Mean ꟻLIP of the mean image against the reference (tone-mapped; see `perceptual`).
+    flip: Option<f64>,
     non_finite: u64,
     /// What the method's pixels converge to (see `PixelLimit`).
     pixel_limit: lightlab_integrators::PixelLimit,
@@ -273,7 +276,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             .push(r);
     }
     let mut references: BTreeMap<PathBuf, Option<crate::metrics::Image>> = BTreeMap::new();
-    let mut settings = Vec::new();
+    let (mut settings, mut flip_maps) = (Vec::new(), Vec::new());
     for ((scene, method, setting), rs) in &groups {
         let get = |f: fn(&RunRecord) -> f64| mean_se(&rs.iter().map(|r| f(r)).collect::<Vec<_>>());
         let reference = references
@@ -289,8 +292,10 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             .collect();
         let slices: Vec<&[[f32; 3]]> = images.iter().map(|i| i.as_slice()).collect();
         let bv = reference.as_ref().and_then(|r| bias_variance(&slices, r));
+        let mut flip = None;
         let image = match (reference.as_ref(), mean_image(&slices)) {
             (Some(r), Some(layers)) => {
+                flip = perceptual::flip(&r.mean, &layers[0].pixels, r.width, r.height);
                 let file = format!(
                     "images/{}.exr",
                     sanitize(&format!("{scene}-{method}-{setting}"))
@@ -301,6 +306,8 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             }
             _ => None,
         };
+        let (flip_mean, flip_map) = (flip.as_ref().map(|f| f.mean), flip.map(|f| f.map));
+        flip_maps.push(flip_map);
         settings.push(SettingSummary {
             scene: scene.clone(),
             method: method.clone(),
@@ -320,6 +327,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
                 &rs.iter().map(|r| r.errors.rel_mse).collect::<Vec<_>>(),
                 &rs.iter().map(|r| r.wall_seconds).collect::<Vec<_>>(),
             ),
+            flip: flip_mean,
             bias2: bv.map(|b| b.bias2),
             variance: bv.map(|b| b.variance),
             non_finite: rs.iter().map(|r| r.non_finite).sum(),
@@ -364,12 +372,13 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
 
     // The HTML report: per scene with a reference, its settings in budget order.
     let mut scenes: Vec<(String, crate::metrics::Image, Vec<html::Entry>)> = Vec::new();
-    for (((scene, _, _), rs), summary) in groups.iter().zip(&settings) {
+    for ((((scene, _, _), rs), summary), flip_map) in groups.iter().zip(&settings).zip(flip_maps) {
         let Some(Some(reference)) = references.get(&rs[0].reference) else {
             continue;
         };
         let entry = html::Entry {
             summary,
+            flip_map,
             image: summary
                 .image
                 .as_ref()

@@ -126,6 +126,12 @@ fn report_embeds_every_setting_with_its_image_in_budget_order() {
         );
         assert!(s["rel_mse"][0].as_f64().unwrap() > 0.0);
         assert!(s["rays"].as_f64().unwrap() > 0.0);
+        let flip = s["flip"].as_f64().unwrap();
+        assert!(flip > 0.0 && flip < 1.0, "mean ꟻLIP {flip}");
+        let map = base64::engine::general_purpose::STANDARD
+            .decode(s["flip_map"].as_str().unwrap())
+            .unwrap();
+        assert_eq!(map.len(), 12 * 8);
     }
     matches(&decode(&scene["reference"]), &reference.mean);
     assert_eq!(
