@@ -10,6 +10,7 @@
 //! exact to that (a display, not a measurement: the table's numbers come from the f32 images).
 
 use crate::atomic::write_atomic;
+use crate::image_io::RgbLayer;
 use crate::metrics::Image;
 use crate::report::SettingSummary;
 use base64::Engine;
@@ -87,6 +88,8 @@ struct Scene<'a> {
     width: u32,
     height: u32,
     reference: String,
+    /// The reference's further layers (name, encoded pixels): the error maps of a layer need it.
+    reference_layers: Vec<(&'a str, String)>,
     settings: Vec<Setting<'a>>,
 }
 
@@ -101,6 +104,8 @@ struct Setting<'a> {
     pixels: Option<String>,
     /// Its ꟻLIP map, 8 bits per pixel (0–255 for 0–1), base64.
     flip_map: Option<String>,
+    /// Its further layers (name, encoded pixels).
+    layers: Vec<(&'a str, String)>,
 }
 
 #[derive(Serialize)]
@@ -113,6 +118,9 @@ struct Plot {
 pub(crate) struct Entry<'a> {
     pub summary: &'a SettingSummary,
     pub image: Option<Image>,
+    /// Mean over the trials of each further layer of the runs' images (path classes, bounces,
+    /// techniques), by name.
+    pub layers: Vec<RgbLayer>,
     /// Its ꟻLIP map against the reference.
     pub flip_map: Option<Vec<f32>>,
 }
@@ -129,7 +137,7 @@ pub(crate) struct Provenance {
 pub(crate) fn write_html(
     out_dir: &Path,
     provenance: &Provenance,
-    scenes: &[(String, Image, Vec<Entry>)],
+    scenes: &[(String, (Image, Vec<RgbLayer>), Vec<Entry>)],
     fits: &serde_json::Value,
     plot_files: &[String],
 ) -> io::Result<()> {
@@ -159,11 +167,12 @@ pub(crate) fn write_html(
         source: std::fs::read_to_string(out_dir.join("experiment.ron")).ok(),
         scenes: scenes
             .iter()
-            .map(|(name, reference, entries)| Scene {
+            .map(|(name, (reference, reference_layers), entries)| Scene {
                 name,
                 width: reference.width,
                 height: reference.height,
                 reference: encode(&reference.mean),
+                reference_layers: encode_layers(reference_layers, reference.mean.len()),
                 settings: entries
                     .iter()
                     .map(|e| Setting {
@@ -186,6 +195,7 @@ pub(crate) fn write_html(
                                 .collect();
                             base64::engine::general_purpose::STANDARD.encode(bytes)
                         }),
+                        layers: encode_layers(&e.layers, reference.mean.len()),
                     })
                     .collect(),
             })
@@ -211,6 +221,29 @@ fn join_or(items: &[String], otherwise: &str) -> String {
     } else {
         items.join("; ")
     }
+}
+
+/// The layers of `pixels` pixels, encoded by name.
+fn encode_layers(layers: &[RgbLayer], pixels: usize) -> Vec<(&str, String)> {
+    layers
+        .iter()
+        .filter(|l| l.pixels.len() == pixels)
+        .map(|l| (l.name.as_str(), encode(&l.pixels)))
+        .collect()
+}
+
+/// The layers of an image file a report shows beside the image: every one but the image itself
+/// (`radiance`) and the variances.
+pub(crate) fn extra_layers(layers: Vec<RgbLayer>) -> Vec<RgbLayer> {
+    layers
+        .into_iter()
+        .filter(|l| {
+            !(l.name.is_empty()
+                || l.name == "radiance"
+                || l.name == "variance"
+                || l.name.ends_with(".variance"))
+        })
+        .collect()
 }
 
 /// RGB pixels as little-endian half floats, base64.

@@ -6,6 +6,7 @@ use lightlab_integrators::{Film, RenderOutput};
 use std::path::Path;
 
 /// A named RGB image, row-major.
+#[derive(Clone, Debug)]
 pub struct RgbLayer {
     pub name: String,
     pub pixels: Vec<[f32; 3]>,

@@ -6,7 +6,7 @@
 
 use crate::atomic::write_atomic;
 use crate::html;
-use crate::image_io::{RgbLayer, write_exr};
+use crate::image_io::{RgbLayer, read_exr, write_exr};
 use crate::metrics::{Efficiency, Fit, REL_EPSILON, bias_variance, efficiency, fit_power_law};
 use crate::perceptual;
 use crate::plot::{LinePlot, Series, render_svg};
@@ -371,13 +371,35 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
     )?;
 
     // The HTML report: per scene with a reference, its settings in budget order.
-    let mut scenes: Vec<(String, crate::metrics::Image, Vec<html::Entry>)> = Vec::new();
+    let mut scenes: Vec<(
+        String,
+        (crate::metrics::Image, Vec<RgbLayer>),
+        Vec<html::Entry>,
+    )> = Vec::new();
     for ((((scene, _, _), rs), summary), flip_map) in groups.iter().zip(&settings).zip(flip_maps) {
         let Some(Some(reference)) = references.get(&rs[0].reference) else {
             continue;
         };
+        // The further layers, averaged over the trials that have them all.
+        let trials: Vec<Vec<RgbLayer>> = rs
+            .iter()
+            .filter_map(|r| read_exr(&out_dir.join("runs").join(&r.id).join("image.exr")).ok())
+            .map(|(_, _, layers)| html::extra_layers(layers))
+            .collect();
+        let mut layers = trials.first().cloned().unwrap_or_default();
+        for l in &mut layers {
+            let of_trials: Vec<&[[f32; 3]]> = trials
+                .iter()
+                .filter_map(|t| t.iter().find(|m| m.name == l.name))
+                .map(|m| m.pixels.as_slice())
+                .collect();
+            if let Some(mean) = mean_image(&of_trials) {
+                l.pixels = mean.into_iter().next().expect("the mean layer").pixels;
+            }
+        }
         let entry = html::Entry {
             summary,
+            layers,
             flip_map,
             image: summary
                 .image
@@ -386,7 +408,12 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
         };
         match scenes.iter_mut().find(|s| &s.0 == scene) {
             Some(s) => s.2.push(entry),
-            None => scenes.push((scene.clone(), reference.clone(), vec![entry])),
+            None => {
+                let layers = read_exr(&rs[0].reference)
+                    .map(|(_, _, l)| html::extra_layers(l))
+                    .unwrap_or_default();
+                scenes.push((scene.clone(), (reference.clone(), layers), vec![entry]))
+            }
         }
     }
     for (_, _, entries) in &mut scenes {

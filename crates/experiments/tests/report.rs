@@ -32,6 +32,7 @@ const EXPERIMENT: &str = r#"Experiment(
     sweep: [Values(field: "spp", values: [16, 2, 4])],
     trials: 2,
     seed: 3,
+    classes: ["LE"],
 )"#;
 
 /// Runs the experiment in a fresh directory; returns its output directory.
@@ -134,11 +135,23 @@ fn report_embeds_every_setting_with_its_image_in_budget_order() {
         assert_eq!(map.len(), 12 * 8);
     }
     matches(&decode(&scene["reference"]), &reference.mean);
-    assert_eq!(
-        d["plots"].as_array().unwrap().len(),
-        3,
-        "the three plots inline"
-    );
+    // The path-class layers, of every setting and of the reference, averaged over the trials.
+    let names = |layers: &serde_json::Value| -> Vec<String> {
+        layers
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|l| l[0].as_str().unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(names(&scene["reference_layers"]), ["LE", "rest"]);
+    for s in settings {
+        assert_eq!(names(&s["layers"]), ["LE", "rest"]);
+        let le = decode(&s["layers"][0][1]);
+        assert_eq!(le.len(), 12 * 8 * 3);
+    }
+    let plots = d["plots"].as_array().unwrap().len();
+    assert!(plots >= 3, "the plots inline ({plots})");
 }
 
 /// A Chromium to run the page in: `LIGHTLAB_CHROMIUM`, or `chromium` on the path.
