@@ -125,6 +125,14 @@ pub(crate) struct Entry<'a> {
     pub flip_map: Option<Vec<f32>>,
 }
 
+/// One scene of the report: its reference (with its further layers) and its settings.
+pub(crate) struct SceneInput<'a> {
+    pub name: String,
+    pub reference: Image,
+    pub reference_layers: Vec<RgbLayer>,
+    pub entries: Vec<Entry<'a>>,
+}
+
 /// The report's facts about the runs: their number, Lightlab versions and machines.
 pub(crate) struct Provenance {
     pub runs: usize,
@@ -137,7 +145,7 @@ pub(crate) struct Provenance {
 pub(crate) fn write_html(
     out_dir: &Path,
     provenance: &Provenance,
-    scenes: &[(String, (Image, Vec<RgbLayer>), Vec<Entry>)],
+    scenes: &[SceneInput],
     fits: &serde_json::Value,
     plot_files: &[String],
 ) -> io::Result<()> {
@@ -151,7 +159,7 @@ pub(crate) fn write_html(
             };
             let scene = scenes
                 .iter()
-                .map(|s| s.0.as_str())
+                .map(|s| s.name.as_str())
                 .filter(|s| file.starts_with(&format!("{s}-")))
                 .max_by_key(|s| s.len())?;
             Some(Plot {
@@ -167,7 +175,15 @@ pub(crate) fn write_html(
         source: std::fs::read_to_string(out_dir.join("experiment.ron")).ok(),
         scenes: scenes
             .iter()
-            .map(|(name, (reference, reference_layers), entries)| Scene {
+            .map(|scene| {
+                (
+                    &scene.name,
+                    &scene.reference,
+                    &scene.reference_layers,
+                    &scene.entries,
+                )
+            })
+            .map(|(name, reference, reference_layers, entries)| Scene {
                 name,
                 width: reference.width,
                 height: reference.height,

@@ -48,9 +48,7 @@ pub fn film_layers(film: &Film) -> Vec<RgbLayer> {
 pub fn output_layers(out: &RenderOutput) -> Vec<RgbLayer> {
     let mut layers = film_layers(&out.film);
     for (name, film) in &out.layers {
-        let [mean, variance] = <[RgbLayer; 2]>::try_from(film_layers(film))
-            .ok()
-            .expect("two layers");
+        let [mean, variance] = <[RgbLayer; 2]>::try_from(film_layers(film)).expect("two layers");
         layers.push(RgbLayer {
             name: name.clone(),
             pixels: mean.pixels,

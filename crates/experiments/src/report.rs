@@ -371,11 +371,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
     )?;
 
     // The HTML report: per scene with a reference, its settings in budget order.
-    let mut scenes: Vec<(
-        String,
-        (crate::metrics::Image, Vec<RgbLayer>),
-        Vec<html::Entry>,
-    )> = Vec::new();
+    let mut scenes: Vec<html::SceneInput> = Vec::new();
     for ((((scene, _, _), rs), summary), flip_map) in groups.iter().zip(&settings).zip(flip_maps) {
         let Some(Some(reference)) = references.get(&rs[0].reference) else {
             continue;
@@ -406,18 +402,20 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
                 .as_ref()
                 .and_then(|f| load_image(&out_dir.join(f)).ok()),
         };
-        match scenes.iter_mut().find(|s| &s.0 == scene) {
-            Some(s) => s.2.push(entry),
-            None => {
-                let layers = read_exr(&rs[0].reference)
+        match scenes.iter_mut().find(|s| &s.name == scene) {
+            Some(s) => s.entries.push(entry),
+            None => scenes.push(html::SceneInput {
+                name: scene.clone(),
+                reference: reference.clone(),
+                reference_layers: read_exr(&rs[0].reference)
                     .map(|(_, _, l)| html::extra_layers(l))
-                    .unwrap_or_default();
-                scenes.push((scene.clone(), (reference.clone(), layers), vec![entry]))
-            }
+                    .unwrap_or_default(),
+                entries: vec![entry],
+            }),
         }
     }
-    for (_, _, entries) in &mut scenes {
-        entries.sort_by(|a, b| {
+    for s in &mut scenes {
+        s.entries.sort_by(|a, b| {
             budget_key(&a.summary.setting).total_cmp(&budget_key(&b.summary.setting))
         });
     }
