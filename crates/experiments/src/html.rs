@@ -106,6 +106,8 @@ struct Setting<'a> {
     flip_map: Option<String>,
     /// Its further layers (name, encoded pixels).
     layers: Vec<(&'a str, String)>,
+    /// Each trial's image, encoded.
+    trial_pixels: Vec<String>,
 }
 
 #[derive(Serialize)]
@@ -118,6 +120,8 @@ struct Plot {
 pub(crate) struct Entry<'a> {
     pub summary: &'a SettingSummary,
     pub image: Option<Image>,
+    /// Each trial's image, in trial order.
+    pub trial_images: Vec<Vec<[f32; 3]>>,
     /// Mean over the trials of each further layer of the runs' images (path classes, bounces,
     /// techniques), by name.
     pub layers: Vec<RgbLayer>,
@@ -212,6 +216,12 @@ pub(crate) fn write_html(
                             base64::engine::general_purpose::STANDARD.encode(bytes)
                         }),
                         layers: encode_layers(&e.layers, reference.mean.len()),
+                        trial_pixels: e
+                            .trial_images
+                            .iter()
+                            .filter(|t| t.len() == reference.mean.len())
+                            .map(|t| encode(t))
+                            .collect(),
                     })
                     .collect(),
             })

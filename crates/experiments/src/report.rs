@@ -376,12 +376,16 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
         let Some(Some(reference)) = references.get(&rs[0].reference) else {
             continue;
         };
-        // The further layers, averaged over the trials that have them all.
-        let trials: Vec<Vec<RgbLayer>> = rs
+        // Each trial's image, and the further layers averaged over the trials.
+        let (trial_images, trials): (Vec<Vec<[f32; 3]>>, Vec<Vec<RgbLayer>>) = rs
             .iter()
             .filter_map(|r| read_exr(&out_dir.join("runs").join(&r.id).join("image.exr")).ok())
-            .map(|(_, _, layers)| html::extra_layers(layers))
-            .collect();
+            .map(|(_, _, layers)| {
+                let image = layers.iter().find(|l| l.name == "radiance");
+                let image = image.map(|l| l.pixels.clone()).unwrap_or_default();
+                (image, html::extra_layers(layers))
+            })
+            .unzip();
         let mut layers = trials.first().cloned().unwrap_or_default();
         for l in &mut layers {
             let of_trials: Vec<&[[f32; 3]]> = trials
@@ -395,6 +399,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
         }
         let entry = html::Entry {
             summary,
+            trial_images,
             layers,
             flip_map,
             image: summary

@@ -127,6 +127,7 @@ fn report_embeds_every_setting_with_its_image_in_budget_order() {
         );
         assert!(s["rel_mse"][0].as_f64().unwrap() > 0.0);
         assert!(s["rays"].as_f64().unwrap() > 0.0);
+        assert_eq!(s["trials"], 2);
         let flip = s["flip"].as_f64().unwrap();
         assert!(flip > 0.0 && flip < 1.0, "mean ꟻLIP {flip}");
         let map = base64::engine::general_purpose::STANDARD
@@ -147,6 +148,22 @@ fn report_embeds_every_setting_with_its_image_in_budget_order() {
     assert_eq!(names(&scene["reference_layers"]), ["LE", "rest"]);
     for s in settings {
         assert_eq!(names(&s["layers"]), ["LE", "rest"]);
+        let trials = s["trial_pixels"].as_array().unwrap();
+        assert_eq!(trials.len(), 2, "each trial's image");
+        let mean: Vec<f32> = decode(&trials[0])
+            .iter()
+            .zip(decode(&trials[1]))
+            .map(|(a, b)| (a + b) / 2.0)
+            .collect();
+        let exact = &load_image(&out.join(s["image"].as_str().unwrap()))
+            .unwrap()
+            .mean;
+        for (m, e) in mean.iter().zip(exact.iter().flatten()) {
+            assert!(
+                (m - e).abs() <= e.abs() * 2f32.powi(-10) + 1e-7,
+                "trials average {m}, mean {e}"
+            );
+        }
         let le = decode(&s["layers"][0][1]);
         assert_eq!(le.len(), 12 * 8 * 3);
     }
