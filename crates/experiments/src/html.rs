@@ -21,7 +21,7 @@ use std::path::Path;
 const TEMPLATE: &str = include_str!("html/report.html");
 
 /// One line per metric, as experiments/README.md defines them.
-const HELP: [(&str, &str); 13] = [
+const HELP: [(&str, &str); 14] = [
     (
         "MSE",
         "mean over pixels and channels of (x − r)² − v_r: the reference's own noise v_r is not charged to the method; mean over trials ± standard error",
@@ -52,6 +52,10 @@ const HELP: [(&str, &str); 13] = [
         "wall-clock seconds of the render, mean over trials (time budgets stop at the pass boundary nearest the budget)",
     ),
     ("rays", "rays traced, mean over trials"),
+    (
+        "photons",
+        "photon (light) paths traced and photons stored (photon mapping, VCM: its light vertices), means over trials",
+    ),
     (
         "ꟻLIP",
         "perceptual error of the mean image against the reference (Andersson et al. 2020), both tone-mapped to 8-bit sRGB at exposure 0, 67 pixels per degree; mean of the per-pixel map in [0, 1]",

@@ -169,6 +169,9 @@ pub(crate) struct SettingSummary {
     spp: f64,
     wall_seconds: f64,
     rays: f64,
+    /// Photon (light) paths traced and photons stored, means over trials.
+    photons: f64,
+    photons_stored: f64,
     mse: (f64, f64),
     rel_mse: (f64, f64),
     mae: (f64, f64),
@@ -316,6 +319,8 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             spp: get(|r| r.spp as f64).0,
             wall_seconds: get(|r| r.wall_seconds).0,
             rays: get(|r| r.rays as f64).0,
+            photons: get(|r| r.photons as f64).0,
+            photons_stored: get(|r| r.photons_stored as f64).0,
             mse: get(|r| r.errors.mse),
             rel_mse: get(|r| r.errors.rel_mse),
             mae: get(|r| r.errors.mae),

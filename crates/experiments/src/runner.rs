@@ -92,6 +92,11 @@ pub struct RunRecord {
     pub pilot_seconds: f64,
     pub samples: u64,
     pub rays: u64,
+    /// Photon (light) paths traced and photons stored, for the photon-mapping methods and VCM.
+    #[serde(default)]
+    pub photons: u64,
+    #[serde(default)]
+    pub photons_stored: u64,
     pub non_finite: u64,
     pub errors: Errors,
     /// Errors of each path-class layer (the experiment's `classes`, then `rest`) against the same
@@ -310,6 +315,8 @@ pub fn run_experiment(
             pilot_seconds: out.stats.pilot_seconds,
             samples: out.stats.samples,
             rays: out.stats.rays,
+            photons: out.stats.photons,
+            photons_stored: out.stats.photons_stored,
             non_finite: out.stats.non_finite_total(),
             errors: e,
             class_errors,

@@ -28,6 +28,7 @@ const EXPERIMENT: &str = r#"Experiment(
     methods: [
         (label: "path MIS", integrator: "Path"),
         (label: "bidirectional", integrator: "Bdpt"),
+        (label: "SPPM", integrator: "Sppm", settings: {"photons_per_pass": 500}),
     ],
     sweep: [Values(field: "spp", values: [16, 2, 4])],
     trials: 2,
@@ -97,7 +98,7 @@ fn report_embeds_every_setting_with_its_image_in_budget_order() {
         assert!(!page.contains(external), "the page loads {external}…");
     }
     let d = data(&page);
-    assert_eq!(d["runs"], 12);
+    assert_eq!(d["runs"], 18);
     assert!(d["source"].as_str().unwrap().contains("name: \"report\""));
     assert!(!d["machine"].as_str().unwrap().is_empty());
     assert!(d["help"].as_array().unwrap().len() >= 10);
@@ -110,14 +111,16 @@ fn report_embeds_every_setting_with_its_image_in_budget_order() {
     );
     let reference = load_image(&finished_runs(&out).unwrap()[0].reference).unwrap();
     let settings = scene["settings"].as_array().unwrap();
-    assert_eq!(settings.len(), 6);
+    assert_eq!(settings.len(), 9);
     let budgets: Vec<&str> = settings
         .iter()
         .map(|s| s["budget"].as_str().unwrap())
         .collect();
     assert_eq!(
         budgets,
-        ["spp=2", "spp=2", "spp=4", "spp=4", "spp=16", "spp=16"]
+        [
+            "spp=2", "spp=2", "spp=2", "spp=4", "spp=4", "spp=4", "spp=16", "spp=16", "spp=16"
+        ]
     );
     for s in settings {
         let file = s["image"].as_str().unwrap();
@@ -128,6 +131,12 @@ fn report_embeds_every_setting_with_its_image_in_budget_order() {
         assert!(s["rel_mse"][0].as_f64().unwrap() > 0.0);
         assert!(s["rays"].as_f64().unwrap() > 0.0);
         assert_eq!(s["trials"], 2);
+        let photons = s["photons"].as_f64().unwrap();
+        let spp: f64 = s["budget"].as_str().unwrap()[4..].parse().unwrap();
+        match s["method"].as_str().unwrap() {
+            "SPPM" => assert_eq!(photons, 500.0 * spp, "photon paths of the passes"),
+            _ => assert_eq!(photons, 0.0, "path tracing and BDPT trace no photons"),
+        }
         let flip = s["flip"].as_f64().unwrap();
         assert!(flip > 0.0 && flip < 1.0, "mean ꟻLIP {flip}");
         let map = base64::engine::general_purpose::STANDARD
