@@ -29,7 +29,7 @@ const HELP: [(&str, &str); 14] = [
     ("relMSE", "mean of ((x − r)² − v_r) / (r² + 0.01)"),
     (
         "bias²",
-        "(x̄ − r)² − variance/T − v_r averaged over pixels, from the T trials' images (can be slightly negative from noise)",
+        "(x̄ − r)² − variance/T − v_r averaged over pixels, from the T trials' images (can be slightly negative from noise); ± a leave-one-out jackknife standard error (T ≥ 3 trials; conservative)",
     ),
     (
         "variance",

@@ -7,7 +7,9 @@
 use crate::atomic::write_atomic;
 use crate::html;
 use crate::image_io::{RgbLayer, read_exr, write_exr};
-use crate::metrics::{Efficiency, Fit, REL_EPSILON, bias_variance, efficiency, fit_power_law};
+use crate::metrics::{
+    Efficiency, Fit, REL_EPSILON, bias_variance, bias_variance_se, efficiency, fit_power_law,
+};
 use crate::perceptual;
 use crate::plot::{LinePlot, Series, render_svg};
 use crate::reference::load_image;
@@ -181,6 +183,9 @@ pub(crate) struct SettingSummary {
     rel_efficiency: Efficiency,
     bias2: Option<f64>,
     variance: Option<f64>,
+    /// Their jackknife standard errors (T ≥ 3 trials; see `bias_variance_se`).
+    bias2_se: Option<f64>,
+    variance_se: Option<f64>,
     /// Mean ꟻLIP of the mean image against the reference (tone-mapped; see `perceptual`).
     flip: Option<f64>,
     non_finite: u64,
@@ -295,6 +300,9 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             .collect();
         let slices: Vec<&[[f32; 3]]> = images.iter().map(|i| i.as_slice()).collect();
         let bv = reference.as_ref().and_then(|r| bias_variance(&slices, r));
+        let bv_se = reference
+            .as_ref()
+            .and_then(|r| bias_variance_se(&slices, r));
         let mut flip = None;
         let image = match (reference.as_ref(), mean_image(&slices)) {
             (Some(r), Some(layers)) => {
@@ -335,6 +343,8 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             flip: flip_mean,
             bias2: bv.map(|b| b.bias2),
             variance: bv.map(|b| b.variance),
+            bias2_se: bv_se.map(|b| b.bias2),
+            variance_se: bv_se.map(|b| b.variance),
             non_finite: rs.iter().map(|r| r.non_finite).sum(),
             pixel_limit: rs[0].pixel_limit,
             image,
@@ -363,7 +373,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
     let summary = serde_json::json!({
         "runs": records.len(),
         "rel_mse_epsilon": REL_EPSILON,
-        "metrics": "mse and rel_mse have the reference's own variance subtracted where it is an estimate (see warnings); values are (mean over trials, standard error); efficiency = 1/(mean error × mean seconds) with a delta-method standard error, error_significant false where the mean error is not significantly above zero; convergence fits weight each point by its pooled log-space standard error and list the points left out (MSE ≤ 0)",
+        "metrics": "mse and rel_mse have the reference's own variance subtracted where it is an estimate (see warnings); values are (mean over trials, standard error); bias2_se and variance_se are leave-one-out jackknife standard errors (T ≥ 3 trials; conservative); efficiency = 1/(mean error × mean seconds) with a delta-method standard error, error_significant false where the mean error is not significantly above zero; convergence fits weight each point by its pooled log-space standard error and list the points left out (MSE ≤ 0)",
         "settings": settings,
         "convergence": plots.fits,
         "plots": plots.files,

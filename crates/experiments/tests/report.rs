@@ -131,6 +131,7 @@ fn report_embeds_every_setting_with_its_image_in_budget_order() {
         assert!(s["rel_mse"][0].as_f64().unwrap() > 0.0);
         assert!(s["rays"].as_f64().unwrap() > 0.0);
         assert_eq!(s["trials"], 2);
+        assert!(s["bias2_se"].is_null(), "no jackknife from two trials");
         let photons = s["photons"].as_f64().unwrap();
         let spp: f64 = s["budget"].as_str().unwrap()[4..].parse().unwrap();
         match s["method"].as_str().unwrap() {
