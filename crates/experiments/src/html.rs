@@ -123,7 +123,8 @@ struct Plot {
 /// What one setting brings to the report: its summary and mean image.
 pub(crate) struct Entry<'a> {
     pub summary: &'a SettingSummary,
-    pub image: Option<Image>,
+    /// The mean image over the trials.
+    pub mean: Option<Vec<[f32; 3]>>,
     /// Each trial's image, in trial order.
     pub trial_images: Vec<Vec<[f32; 3]>>,
     /// Mean over the trials of each further layer of the runs' images (path classes, bounces,
@@ -208,10 +209,10 @@ pub(crate) fn write_html(
                         },
                         summary: e.summary,
                         pixels: e
-                            .image
+                            .mean
                             .as_ref()
-                            .filter(|i| i.mean.len() == reference.mean.len())
-                            .map(|i| encode(&i.mean)),
+                            .filter(|m| m.len() == reference.mean.len())
+                            .map(|m| encode(m)),
                         flip_map: e.flip_map.as_ref().map(|m| {
                             let bytes: Vec<u8> = m
                                 .iter()

@@ -307,6 +307,20 @@ mod tests {
         }
     }
 
+    /// Standard normal deviates: Box–Muller on a 64-bit LCG started at `seed`.
+    fn gaussian(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            let mut u = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let (u1, u2) = (u(), u());
+            (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+        }
+    }
+
     #[test]
     fn errors_of_known_differences() {
         let r = image(vec![[1.0; 3], [0.0; 3]], 0.0);
@@ -332,17 +346,7 @@ mod tests {
     fn jackknife_standard_errors_match_the_spread_across_replications() {
         let (b, sigma, n, t) = (0.2f64, 0.5f64, 64, 6);
         let r = image(vec![[1.0; 3]; n], 0.0);
-        let mut state = 777u64;
-        let mut gauss = move || {
-            let mut u = || {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-            };
-            let (u1, u2) = (u(), u());
-            (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-        };
+        let mut gauss = gaussian(777);
         let (mut estimates, mut ses) = (Vec::new(), Vec::new());
         for _ in 0..300 {
             let trials: Vec<Vec<[f32; 3]>> = (0..t)
@@ -382,18 +386,7 @@ mod tests {
         let (b, sigma) = (0.3f64, 0.5f64);
         let n = 4096;
         let r = image((0..n).map(|i| [(i % 7) as f32; 3]).collect(), 0.0);
-        let mut state = 12345u64;
-        let mut gauss = || {
-            // Box–Muller on a 64-bit LCG.
-            let mut u = || {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-            };
-            let (u1, u2) = (u(), u());
-            (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-        };
+        let mut gauss = gaussian(12345);
         let trials: Vec<Vec<[f32; 3]>> = (0..8)
             .map(|_| {
                 r.mean

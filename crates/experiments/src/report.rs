@@ -284,29 +284,33 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             .push(r);
     }
     let mut references: BTreeMap<PathBuf, Option<crate::metrics::Image>> = BTreeMap::new();
-    let (mut settings, mut flip_maps) = (Vec::new(), Vec::new());
+    // Per setting, what the HTML report shows besides the summary.
+    let (mut settings, mut shown) = (Vec::new(), Vec::new());
     for ((scene, method, setting), rs) in &groups {
         let get = |f: fn(&RunRecord) -> f64| mean_se(&rs.iter().map(|r| f(r)).collect::<Vec<_>>());
         let reference = references
             .entry(rs[0].reference.clone())
             .or_insert_with(|| load_image(&rs[0].reference).ok());
-        let images: Vec<Vec<[f32; 3]>> = rs
+        // Each run's image file, read once: its image and its further layers.
+        let (images, trial_layers): (Vec<Vec<[f32; 3]>>, Vec<Vec<RgbLayer>>) = rs
             .iter()
-            .filter_map(|r| {
-                load_image(&out_dir.join("runs").join(&r.id).join("image.exr"))
-                    .ok()
-                    .map(|i| i.mean)
+            .filter_map(|r| read_exr(&out_dir.join("runs").join(&r.id).join("image.exr")).ok())
+            .filter_map(|(_, _, mut layers)| {
+                let i = layers.iter().position(|l| l.name == "radiance")?;
+                let image = layers.swap_remove(i).pixels;
+                Some((image, html::extra_layers(layers)))
             })
-            .collect();
+            .unzip();
         let slices: Vec<&[[f32; 3]]> = images.iter().map(|i| i.as_slice()).collect();
         let bv = reference.as_ref().and_then(|r| bias_variance(&slices, r));
         let bv_se = reference
             .as_ref()
             .and_then(|r| bias_variance_se(&slices, r));
-        let mut flip = None;
+        let (mut flip, mut mean) = (None, None);
         let image = match (reference.as_ref(), mean_image(&slices)) {
             (Some(r), Some(layers)) => {
                 flip = perceptual::flip(&r.mean, &layers[0].pixels, r.width, r.height);
+                mean = Some(layers[0].pixels.clone());
                 let file = format!(
                     "images/{}.exr",
                     sanitize(&format!("{scene}-{method}-{setting}"))
@@ -317,8 +321,8 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             }
             _ => None,
         };
-        let (flip_mean, flip_map) = (flip.as_ref().map(|f| f.mean), flip.map(|f| f.map));
-        flip_maps.push(flip_map);
+        let flip_mean = flip.as_ref().map(|f| f.mean);
+        shown.push((mean, flip.map(|f| f.map), images, trial_layers));
         settings.push(SettingSummary {
             scene: scene.clone(),
             method: method.clone(),
@@ -387,20 +391,13 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
 
     // The HTML report: per scene with a reference, its settings in budget order.
     let mut scenes: Vec<html::SceneInput> = Vec::new();
-    for ((((scene, _, _), rs), summary), flip_map) in groups.iter().zip(&settings).zip(flip_maps) {
+    for ((((scene, _, _), rs), summary), (mean, flip_map, trial_images, trials)) in
+        groups.iter().zip(&settings).zip(shown)
+    {
         let Some(Some(reference)) = references.get(&rs[0].reference) else {
             continue;
         };
-        // Each trial's image, and the further layers averaged over the trials.
-        let (trial_images, trials): (Vec<Vec<[f32; 3]>>, Vec<Vec<RgbLayer>>) = rs
-            .iter()
-            .filter_map(|r| read_exr(&out_dir.join("runs").join(&r.id).join("image.exr")).ok())
-            .map(|(_, _, layers)| {
-                let image = layers.iter().find(|l| l.name == "radiance");
-                let image = image.map(|l| l.pixels.clone()).unwrap_or_default();
-                (image, html::extra_layers(layers))
-            })
-            .unzip();
+        // The further layers averaged over the trials.
         let mut layers = trials.first().cloned().unwrap_or_default();
         for l in &mut layers {
             let of_trials: Vec<&[[f32; 3]]> = trials
@@ -417,10 +414,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             trial_images,
             layers,
             flip_map,
-            image: summary
-                .image
-                .as_ref()
-                .and_then(|f| load_image(&out_dir.join(f)).ok()),
+            mean,
         };
         match scenes.iter_mut().find(|s| &s.name == scene) {
             Some(s) => s.entries.push(entry),
