@@ -99,7 +99,7 @@ fn layers_sum_on(sc: &lightlab_scene::Scene) {
         );
         // (Path tracing finds this small light's caustic too rarely at 4 spp to test for it; the
         // Cornell box has no caustic at all.)
-        let has_caustic = sc.materials.iter().any(|m| m.is_delta());
+        let has_caustic = sc.materials.iter().any(|m| m.bsdf.is_delta());
         assert!(
             integrator.starts_with("Path") || (filtered.film.average()[0] > 0.0) == has_caustic,
             "{integrator}: caustic {} where the scene has {}",

@@ -6,6 +6,7 @@ use lightlab_experiments::atomic::write_atomic;
 use lightlab_experiments::image_io::{output_layers, write_exr, write_png};
 use lightlab_integrators::paths::Layers;
 use lightlab_integrators::{Budget, IntegratorConfig};
+use lightlab_scene::Scene;
 use std::path::PathBuf;
 
 /// Render a scene and write OUT.exr (layers `radiance` and `variance`, linear float, plus any
@@ -13,15 +14,20 @@ use std::path::PathBuf;
 /// (statistics: time, samples, rays, non-finite samples).
 #[derive(Args)]
 pub struct RenderArgs {
-    /// Scene file (RON), see scenes/README.md.
+    /// Scene file: RON, or a Mitsuba 3 XML file (`.xml`; see scenes/README.md, "Mitsuba scenes").
     scene: PathBuf,
-    /// Integrator and its settings as RON, e.g. 'Path(max_bounces: 8, strategy: Mis)'.
-    #[arg(long, short, default_value = "Path()")]
-    integrator: String,
+    /// Integrator and its settings as RON, e.g. 'Path(max_bounces: 8, strategy: Mis)'. Default:
+    /// a Mitsuba file's own integrator (its max_depth mapped to max_bounces), else 'Path()'.
+    #[arg(long, short)]
+    integrator: Option<String>,
     /// Samples per pixel (≥ 1): camera paths per pixel, light paths per pixel for light tracing,
-    /// passes for progressive photon mapping.
-    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..), conflicts_with = "seconds")]
-    spp: u32,
+    /// passes for progressive photon mapping. Default: a Mitsuba file's sample_count, else 16.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..), conflicts_with = "seconds")]
+    spp: Option<u32>,
+    /// A parameter of a Mitsuba scene, NAME=VALUE (repeatable), overriding its <default> like
+    /// Mitsuba's -D, e.g. `-D spp=64 -D res=512`.
+    #[arg(long = "define", short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
+    define: Vec<(String, String)>,
     /// Render for this many wall-clock seconds instead of a sample count: samples continue until
     /// the time is spent, so the image is the one `--spp` would give at the count reached (see
     /// the README, "Time budgets").
@@ -100,30 +106,74 @@ fn exr_path(output: &std::path::Path) -> Result<PathBuf, String> {
     }
 }
 
-pub fn run(args: RenderArgs) -> Result<(), String> {
-    let layers = args.layers.as_deref().map(|l| match l.trim() {
-        "bounces" => Layers::Bounces,
-        list => Layers::Classes(list.split(',').map(|e| e.trim().to_string()).collect()),
-    });
-    let config = IntegratorConfig::from_ron(&args.integrator)
-        .map_err(|e| format!("--integrator '{}': {e}", args.integrator))?
-        .with_paths_and_layers(args.paths.clone(), layers)?;
-    let budget = match args.seconds {
-        Some(s) => Budget::Seconds(s),
-        None => Budget::Samples(args.spp),
-    };
-    budget.check().map_err(|e| format!("--seconds: {e}"))?;
-    let output = exr_path(&args.output)?;
+/// `NAME=VALUE` of `-D`.
+fn parse_define(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((n, v)) if !n.trim().is_empty() => Ok((n.trim().to_string(), v.to_string())),
+        _ => Err(format!("'{s}' is not NAME=VALUE, e.g. spp=64")),
+    }
+}
+
+/// The scene, and for a Mitsuba file the integrator and sample count it asks for.
+fn load(args: &RenderArgs) -> Result<(Scene, Option<String>, Option<u32>), String> {
+    if lightlab_scene::mitsuba::is_mitsuba(&args.scene) {
+        if !args.set.is_empty() {
+            return Err(format!(
+                "--set edits RON scenes; {} is a Mitsuba file: override its parameters with -D                  NAME=VALUE",
+                args.scene.display()
+            ));
+        }
+        let imported = lightlab_scene::mitsuba::import(&args.scene, &args.define)
+            .map_err(|e| e.to_string())?;
+        // The file's integrator matters only when none is given here.
+        let integrator = match (&args.integrator, imported.integrator) {
+            (None, Some(i)) => Some(i.map_err(|e| e.to_string())?),
+            _ => None,
+        };
+        let mut scene =
+            lightlab_scene::build_scene(imported.desc, &args.scene).map_err(|e| e.to_string())?;
+        scene.warnings.extend(imported.notes);
+        return Ok((scene, integrator, imported.spp));
+    }
+    if !args.define.is_empty() {
+        return Err(format!(
+            "-D sets parameters of Mitsuba scenes; {} is RON: use --set PATH=VALUE",
+            args.scene.display()
+        ));
+    }
     let text = std::fs::read_to_string(&args.scene)
         .map_err(|e| format!("{}: cannot read scene: {e}", args.scene.display()))?;
     let text = lightlab_scene::overrides::apply_overrides(&text, &args.set)?;
-    let mut scene = lightlab_scene::parse_scene(&text, &args.scene).map_err(|e| {
+    let scene = lightlab_scene::parse_scene(&text, &args.scene).map_err(|e| {
         if args.set.is_empty() {
             e.to_string()
         } else {
             format!("{e} (after the --set overrides)")
         }
     })?;
+    Ok((scene, None, None))
+}
+
+pub fn run(args: RenderArgs) -> Result<(), String> {
+    let layers = args.layers.as_deref().map(|l| match l.trim() {
+        "bounces" => Layers::Bounces,
+        list => Layers::Classes(list.split(',').map(|e| e.trim().to_string()).collect()),
+    });
+    let output = exr_path(&args.output)?;
+    let (mut scene, file_integrator, file_spp) = load(&args)?;
+    let (integrator_ron, what) = match (&args.integrator, file_integrator) {
+        (Some(i), _) => (i.clone(), "--integrator"),
+        (None, Some(i)) => (i, "the scene's integrator"),
+        (None, None) => ("Path()".to_string(), "--integrator"),
+    };
+    let config = IntegratorConfig::from_ron(&integrator_ron)
+        .map_err(|e| format!("{what} '{integrator_ron}': {e}"))?
+        .with_paths_and_layers(args.paths.clone(), layers)?;
+    let budget = match args.seconds {
+        Some(s) => Budget::Seconds(s),
+        None => Budget::Samples(args.spp.or(file_spp).unwrap_or(16)),
+    };
+    budget.check().map_err(|e| format!("--seconds: {e}"))?;
     if let Some((w, h)) = args.resolution {
         scene.camera = scene.camera.with_resolution(w, h);
     }

@@ -131,11 +131,22 @@ pub fn write_source(path: &Path, out_dir: &Path) -> Result<(), String> {
         .map_err(|e| format!("{}: {e}", out_dir.display()))
 }
 
-/// Loads a scene with the experiment's resolution override; returns it with its text.
+/// Loads a scene with the experiment's resolution override; returns it with its text (for a
+/// Mitsuba file, the imported description, which includes its meshes and included files).
 pub fn load_scene(path: &Path, resolution: Option<(u32, u32)>) -> Result<(Scene, String), String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read scene: {e}", path.display()))?;
-    let mut scene = lightlab_scene::parse_scene(&text, path).map_err(|e| e.to_string())?;
+    let (mut scene, text) = if lightlab_scene::mitsuba::is_mitsuba(path) {
+        let imported = lightlab_scene::mitsuba::import(path, &[]).map_err(|e| e.to_string())?;
+        let text = format!("{:?}", imported.desc);
+        let mut scene =
+            lightlab_scene::build_scene(imported.desc, path).map_err(|e| e.to_string())?;
+        scene.warnings.extend(imported.notes);
+        (scene, text)
+    } else {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read scene: {e}", path.display()))?;
+        let scene = lightlab_scene::parse_scene(&text, path).map_err(|e| e.to_string())?;
+        (scene, text)
+    };
     if let Some((w, h)) = resolution {
         scene.camera = scene.camera.with_resolution(w, h);
     }

@@ -32,7 +32,7 @@
 //!   does not. Shading-normal corrections are the business of [`SurfaceBsdf`].
 //! - `f` never includes the cosine. Pdfs are per unit solid angle and include the probability of
 //!   choosing the lobe.
-//! - Delta lobes (Mirror, smooth Dielectric) are invisible to `eval`/`pdf` (both zero). Their samples
+//! - Delta lobes (Mirror, Conductor, smooth Dielectric) are invisible to `eval`/`pdf` (both zero). Their samples
 //!   follow pbrt: `f` is the delta coefficient divided by |cos θi| and `pdf` is the discrete
 //!   probability of choosing the lobe, so `weight = f·|cos θi| / pdf` holds for every sample.
 //! - Nothing here returns NaN or ±∞: `eval` gives zero and `sample` gives `None` instead.
@@ -47,7 +47,7 @@ mod specular;
 mod surface;
 
 pub use microfacet::ALPHA_MIN;
-pub use surface::SurfaceBsdf;
+pub use surface::{Material, SurfaceBsdf};
 
 use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
 use phong::Phong;
@@ -153,6 +153,7 @@ impl BsdfSample {
 /// | --- | --- | --- |
 /// | `Diffuse` | `albedo` | Lambertian reflectance; two-sided (reflects on whichever side `wo` is) |
 /// | `Mirror` | `reflectance` | perfect specular reflection, two-sided |
+/// | `Conductor` | `eta`, `k` | smooth metal: specular reflection weighted by the conductor Fresnel term for complex IOR η + ik per channel; two-sided |
 /// | `Dielectric` | `eta` | smooth glass, η = IOR inside / IOR outside, outside = +z side; exact unpolarised Fresnel |
 /// | `RoughConductor` | `alpha`, `eta`, `k` | GGX, anisotropic α (x along the frame's `s`, y along `t`), height-correlated Smith G2, conductor Fresnel with complex IOR η + ik per channel, VNDF sampling; two-sided |
 /// | `RoughDielectric` | `alpha`, `eta` | Walter et al. 2007 rough glass with GGX, VNDF sampling, Fresnel choice of reflection or refraction. η = 1 makes the interface invisible and this model degenerate: it then transmits nothing (pbrt-v4 switches to a pass-through; use no surface instead) |
@@ -163,6 +164,7 @@ impl BsdfSample {
 pub enum Bsdf {
     Diffuse { albedo: Rgb },
     Mirror { reflectance: Rgb },
+    Conductor { eta: Rgb, k: Rgb },
     Dielectric { eta: f32 },
     RoughConductor { alpha: Vec2, eta: Rgb, k: Rgb },
     RoughDielectric { alpha: Vec2, eta: f32 },
@@ -175,7 +177,9 @@ impl Bsdf {
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> BsdfEval {
         let e = match *self {
             Bsdf::Diffuse { albedo } => diffuse::eval(albedo, wo, wi),
-            Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => BsdfEval::ZERO,
+            Bsdf::Mirror { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
+                BsdfEval::ZERO
+            }
             Bsdf::RoughConductor { alpha, eta, k } => {
                 RoughConductor::new(alpha, eta, k).eval(wo, wi)
             }
@@ -204,6 +208,7 @@ impl Bsdf {
         let s = match *self {
             Bsdf::Diffuse { albedo } => Some(diffuse::sample(albedo, wo, u)),
             Bsdf::Mirror { reflectance } => Some(specular::sample_mirror(reflectance, wo)),
+            Bsdf::Conductor { eta, k } => Some(specular::sample_conductor(eta, k, wo)),
             Bsdf::Dielectric { eta } => specular::sample_dielectric(eta, wo, u_lobe, mode),
             Bsdf::RoughConductor { alpha, eta, k } => {
                 RoughConductor::new(alpha, eta, k).sample(wo, u)
@@ -221,7 +226,7 @@ impl Bsdf {
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let pdf = match *self {
             Bsdf::Diffuse { .. } => diffuse::pdf(wo, wi),
-            Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => 0.0,
+            Bsdf::Mirror { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
             Bsdf::RoughConductor { alpha, eta, k } => {
                 RoughConductor::new(alpha, eta, k).pdf(wo, wi)
             }
@@ -234,18 +239,23 @@ impl Bsdf {
     /// Whether every lobe is a Dirac delta, so that `eval` and `pdf` are always zero.
     #[inline]
     pub fn is_delta(&self) -> bool {
-        matches!(self, Bsdf::Mirror { .. } | Bsdf::Dielectric { .. })
+        matches!(
+            self,
+            Bsdf::Mirror { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. }
+        )
     }
 
     /// Heckbert class of the material as a whole: `Diffuse` and microfacet surfaces at least as
-    /// rough as [`DIFFUSE_ALPHA`] are `D`, `Mirror` and smooth `Dielectric` are `S`, smoother
+    /// rough as [`DIFFUSE_ALPHA`] are `D`, `Mirror`, `Conductor` and smooth `Dielectric` are `S`, smoother
     /// microfacet surfaces and `Phong` are `G`. A Phong sample still reports
     /// [`LobeClass::Diffuse`] in [`BsdfSample::lobe`] when its diffuse lobe was chosen.
     #[inline]
     pub fn lobe_class(&self) -> LobeClass {
         match self {
             Bsdf::Diffuse { .. } => LobeClass::Diffuse,
-            Bsdf::Mirror { .. } | Bsdf::Dielectric { .. } => LobeClass::Specular,
+            Bsdf::Mirror { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
+                LobeClass::Specular
+            }
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
                 if alpha.min_element() >= DIFFUSE_ALPHA {
                     LobeClass::Diffuse

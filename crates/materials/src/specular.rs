@@ -1,5 +1,5 @@
-//! Perfectly smooth surfaces: the mirror and the smooth dielectric interface (pbrt-v4 §9.4 and
-//! §9.5). Every lobe is a Dirac delta, so there is nothing to evaluate; samples follow the delta
+//! Perfectly smooth surfaces: the mirror, the smooth conductor and the smooth dielectric interface
+//! (pbrt-v4 §9.3, §9.4 and §9.5). Every lobe is a Dirac delta, so there is nothing to evaluate; samples follow the delta
 //! convention of the crate docs (f = coefficient / |cos θi|, pdf = lobe-selection probability).
 
 use crate::{BsdfSample, LobeClass, fresnel};
@@ -10,6 +10,15 @@ use lightlab_core::{Rgb, TransportMode, Vec3};
 pub(crate) fn sample_mirror(reflectance: Rgb, wo: Vec3) -> BsdfSample {
     let wi = Vec3::new(-wo.x, -wo.y, wo.z);
     BsdfSample::new(wi, reflectance / wi.z.abs(), 1.0, LobeClass::Specular, None)
+}
+
+/// Smooth conductor, two-sided: the mirror direction with weight F(|cos θo|), the conductor Fresnel
+/// reflectance for complex relative index η + i·k (pbrt-v4 §9.3.6, `ConductorBxDF` specular case).
+#[inline]
+pub(crate) fn sample_conductor(eta: Rgb, k: Rgb, wo: Vec3) -> BsdfSample {
+    let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+    let f = fresnel::conductor(wo.z.abs(), eta, k);
+    BsdfSample::new(wi, f / wi.z.abs(), 1.0, LobeClass::Specular, None)
 }
 
 /// Smooth dielectric (pbrt-v4 `DielectricBxDF`, specular case): reflection with probability

@@ -25,11 +25,33 @@ use lightlab_core::{Frame, TransportMode, Vec2, Vec3};
 /// the sampling, which is unchanged.
 ///
 /// `sample` also rejects samples whose value is zero.
+///
+/// **One-sided surfaces.** With `one_sided`, only the front (the side `ns` and `ng` point to)
+/// scatters: every direction below it is rejected as above, so the back is black — Mitsuba's
+/// convention for reflecting BSDFs not wrapped in `twosided` (Mitsuba 3 docs, "BSDFs").
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceBsdf {
     pub frame: Frame,
     pub ng: Vec3,
     pub bsdf: Bsdf,
+    pub one_sided: bool,
+}
+
+/// A scene material: its BSDF, and whether its back side is black (see [`SurfaceBsdf`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    pub bsdf: Bsdf,
+    pub one_sided: bool,
+}
+
+impl Material {
+    /// A material that scatters on both sides (every RON material).
+    pub fn two_sided(bsdf: Bsdf) -> Material {
+        Material {
+            bsdf,
+            one_sided: false,
+        }
+    }
 }
 
 impl SurfaceBsdf {
@@ -41,15 +63,25 @@ impl SurfaceBsdf {
             frame: Frame::from_normal_tangent(ns, dpdu),
             ng,
             bsdf,
+            one_sided: false,
+        }
+    }
+
+    /// The surface of `material`: [`SurfaceBsdf::new`] with the material's sidedness.
+    #[inline]
+    pub fn of(ns: Vec3, dpdu: Vec3, ng: Vec3, material: Material) -> Self {
+        SurfaceBsdf {
+            one_sided: material.one_sided,
+            ..SurfaceBsdf::new(ns, dpdu, ng, material.bsdf)
         }
     }
 
     /// `w` in the shading frame, or `None` when its side of the shading and geometric tangent
-    /// planes disagree (or it lies in either plane).
+    /// planes disagree (or it lies in either plane), or it is below a one-sided surface.
     #[inline]
     fn local_if_consistent(&self, w: Vec3) -> Option<Vec3> {
         let local = self.frame.to_local(w);
-        (w.dot(self.ng) * local.z > 0.0).then_some(local)
+        (w.dot(self.ng) * local.z > 0.0 && !(self.one_sided && local.z < 0.0)).then_some(local)
     }
 
     /// Veach 1997, eq. 5.19: the factor that turns the radiance-mode BSDF with shading normals into

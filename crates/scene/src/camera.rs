@@ -41,6 +41,8 @@ impl Camera {
         let forward = (d.target - d.eye).normalize().as_vec3();
         let right = forward.cross(d.up).normalize();
         let up = right.cross(forward);
+        // A mirrored image: pixels to the right look to the left.
+        let right = if d.mirrored { -right } else { right };
         let (w, h) = d.resolution;
         let t = (d.fov.to_radians() * 0.5).tan();
         let half_size = if w >= h {
@@ -207,7 +209,31 @@ mod tests {
             fov: 90.0,
             resolution: res,
             lens: Lens::Pinhole,
+            mirrored: false,
         }
+    }
+
+    /// A mirrored camera (a Mitsuba sensor with a reflecting transform) sees the image flipped
+    /// left to right, and light tracing's connection lands on the same flipped pixel.
+    #[test]
+    fn a_mirrored_camera_flips_the_image_left_to_right() {
+        let plain = Camera::new(&desc((64, 48)), glam::DVec3::ZERO);
+        let mirrored = Camera::new(
+            &CameraDesc {
+                mirrored: true,
+                ..desc((64, 48))
+            },
+            glam::DVec3::ZERO,
+        );
+        for (x, y) in [(3.5f32, 10.25f32), (40.0, 47.0), (63.9, 0.1)] {
+            let a = plain.generate_ray(Vec2::new(x, y), Vec2::ZERO);
+            let b = mirrored.generate_ray(Vec2::new(64.0 - x, y), Vec2::ZERO);
+            assert!((a.d - b.d).length() < 1e-6, "({x}, {y}): {} vs {}", a.d, b.d);
+            let p = a.o + a.d * 2.0;
+            let s = mirrored.sample_wi(p, Vec2::ZERO).unwrap();
+            assert!((s.raster - Vec2::new(64.0 - x, y)).length() < 1e-3, "{:?}", s.raster);
+        }
+        assert_eq!(plain.up, mirrored.up);
     }
 
     #[test]

@@ -40,25 +40,28 @@ pub struct CameraDesc {
     pub fov: f32,
     pub resolution: (u32, u32),
     pub lens: Lens,
+    /// The image mirrored left to right (a sensor transform with negative determinant; set by the
+    /// Mitsuba importer). RON cameras are never mirrored.
+    pub mirrored: bool,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields, rename = "Camera")]
-struct CameraRaw {
+pub(crate) struct CameraRaw {
     /// Position of the pinhole (or the lens centre). Required.
-    eye: DVec3,
+    pub eye: DVec3,
     /// A point the camera looks at. Required.
-    target: DVec3,
+    pub target: DVec3,
     /// Up direction; need not be perpendicular to the view direction. Default (0, 1, 0).
     #[serde(default = "default_up")]
-    up: Vec3,
+    pub up: Vec3,
     /// Full field of view in degrees along the smaller image axis, in (0, 180). Required.
-    fov: f32,
+    pub fov: f32,
     /// Image width and height in pixels, each ≥ 1. Required.
-    resolution: (u32, u32),
+    pub resolution: (u32, u32),
     /// `Pinhole` or `ThinLens(aperture_radius: r, focus_distance: d)`. Default `Pinhole`.
     #[serde(default)]
-    lens: Lens,
+    pub lens: Lens,
 }
 
 fn default_up() -> Vec3 {
@@ -128,6 +131,7 @@ impl TryFrom<CameraRaw> for CameraDesc {
             fov: c.fov,
             resolution: c.resolution,
             lens: c.lens,
+            mirrored: false,
         })
     }
 }
@@ -135,7 +139,12 @@ impl TryFrom<CameraRaw> for CameraDesc {
 /// A surface material. All parameters are constant over the surface.
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, try_from = "MaterialRaw")]
-pub struct MaterialDesc(pub MaterialRaw);
+pub struct MaterialDesc {
+    pub raw: MaterialRaw,
+    /// Black from behind (Mitsuba's convention for reflecting BSDFs; set by the Mitsuba importer).
+    /// Every RON material scatters on both sides.
+    pub one_sided: bool,
+}
 
 #[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, rename = "Material")]
@@ -147,6 +156,9 @@ pub enum MaterialRaw {
         #[serde(default = "white")]
         reflectance: Rgb,
     },
+    /// Smooth metal: specular reflection weighted by the conductor Fresnel reflectance for the
+    /// complex index of refraction `eta` + i·`k` per channel (eta ≥ 0, k ≥ 0, not both 0).
+    Conductor { eta: Rgb, k: Rgb },
     /// Smooth dielectric interface (glass): Fresnel-weighted reflection and refraction. `ior` is the
     /// index of refraction inside relative to outside (the side the geometric normal points to), > 0.
     /// Default 1.5.
@@ -155,7 +167,7 @@ pub enum MaterialRaw {
         ior: f32,
     },
     /// Rough metal: GGX microfacets (Walter et al. 2007) with complex index of refraction `eta` + i·`k`
-    /// per channel (eta > 0, k ≥ 0). Sampled by visible normals (Heitz 2018).
+    /// per channel (eta ≥ 0, k ≥ 0, not both 0). Sampled by visible normals (Heitz 2018).
     RoughConductor {
         roughness: Roughness,
         eta: Rgb,
@@ -195,19 +207,10 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
             MaterialRaw::Diffuse { albedo } => unit_rgb("Diffuse albedo", albedo)?,
             MaterialRaw::Mirror { reflectance } => unit_rgb("Mirror reflectance", reflectance)?,
             MaterialRaw::Dielectric { ior } => positive("Dielectric ior", ior)?,
+            MaterialRaw::Conductor { eta, k } => check_complex_ior("Conductor", eta, k)?,
             MaterialRaw::RoughConductor { roughness, eta, k } => {
                 check_roughness(roughness)?;
-                for c in eta.to_array() {
-                    positive("RoughConductor eta", c)?;
-                }
-                for c in k.to_array() {
-                    if !(c >= 0.0 && c.is_finite()) {
-                        return Err(format!(
-                            "RoughConductor k must be ≥ 0 and finite per channel, got {}",
-                            fmt_rgb(k)
-                        ));
-                    }
-                }
+                check_complex_ior("RoughConductor", eta, k)?;
             }
             MaterialRaw::RoughDielectric { roughness, ior } => {
                 check_roughness(roughness)?;
@@ -236,8 +239,25 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
                 }
             }
         }
-        Ok(MaterialDesc(m))
+        Ok(MaterialDesc {
+            raw: m,
+            one_sided: false,
+        })
     }
+}
+
+/// η ≥ 0 and k ≥ 0 per channel, not both zero (η = 0 with k > 0 is a lossless reflector, R = 1).
+fn check_complex_ior(what: &str, eta: Rgb, k: Rgb) -> Result<(), String> {
+    for (e, k_c) in eta.to_array().into_iter().zip(k.to_array()) {
+        if !(e >= 0.0 && e.is_finite() && k_c >= 0.0 && k_c.is_finite() && e + k_c > 0.0) {
+            return Err(format!(
+                "{what} eta and k must be ≥ 0 and finite per channel and not both 0, got eta {}, k {}",
+                fmt_rgb(eta),
+                fmt_rgb(k)
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn check_roughness(r: Roughness) -> Result<(), String> {

@@ -1,4 +1,4 @@
-//! Scenes: the RON description (`desc`), the loader that turns it into an immutable, `Sync` [`Scene`]
+//! Scenes: the RON description (`desc`), the Mitsuba 3 XML importer into it (`mitsuba`), the loader that turns it into an immutable, `Sync` [`Scene`]
 //! (geometry in a BVH, materials as BSDFs, lights with power-proportional selection), and the camera.
 //!
 //! ```no_run
@@ -11,11 +11,12 @@ pub mod desc;
 mod error;
 mod light;
 mod load;
+pub mod mitsuba;
 pub mod overrides;
 mod scene;
 
 pub use camera::{Camera, CameraSample};
 pub use error::SceneError;
 pub use light::{Light, LightEmission, LightSample, spot_falloff};
-pub use load::{load_scene, parse_scene};
+pub use load::{build_scene, load_scene, parse_scene};
 pub use scene::Scene;

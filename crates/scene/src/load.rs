@@ -15,16 +15,29 @@ use crate::desc::{
 use crate::{Camera, Light, Scene, SceneError};
 use glam::{DMat3, DQuat, DVec3, Mat3, Vec2, Vec3};
 use lightlab_geometry::{Accel, Geometry, NO_LIGHT, Shape, Sphere, TriangleMesh};
-use lightlab_materials::Bsdf;
+use lightlab_materials::{Bsdf, Material};
 use std::path::Path;
 
-/// Loads and builds the scene in `path`. Mesh files are resolved relative to the scene file.
+/// Loads and builds the scene in `path`: RON, or a Mitsuba 3 XML file (`.xml`, imported with its
+/// defaults; its notes become the scene's warnings). Mesh files are resolved relative to the file.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    if crate::mitsuba::is_mitsuba(path) {
+        let imported = crate::mitsuba::import(path, &[])?;
+        let mut scene = build_scene(imported.desc, path)?;
+        scene.warnings.extend(imported.notes);
+        return Ok(scene);
+    }
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
         source,
     })?;
     parse_scene(&text, path)
+}
+
+/// Builds a scene from a description made in code (e.g. by the Mitsuba importer); `path` names it
+/// in errors and anchors relative mesh paths.
+pub fn build_scene(desc: SceneDesc, path: &Path) -> Result<Scene, SceneError> {
+    build(desc, "", path)
 }
 
 /// Builds a scene from RON `text`; `path` names it in errors and anchors relative mesh paths.
@@ -67,7 +80,14 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         ));
     }
     let material_names: Vec<String> = desc.materials.iter().map(|(n, _)| n.clone()).collect();
-    let materials: Vec<Bsdf> = desc.materials.iter().map(|(_, m)| bsdf(m)).collect();
+    let materials: Vec<Material> = desc
+        .materials
+        .iter()
+        .map(|(_, m)| Material {
+            bsdf: bsdf(m),
+            one_sided: m.one_sided,
+        })
+        .collect();
     let base = path.parent().unwrap_or(Path::new("."));
 
     // World-space geometry in f64, then the scene's centre.
@@ -249,9 +269,10 @@ fn bsdf(m: &MaterialDesc) -> Bsdf {
         Roughness::Isotropic(a) => Vec2::splat(a),
         Roughness::Anisotropic(ax, ay) => Vec2::new(ax, ay),
     };
-    match m.0 {
+    match m.raw {
         MaterialRaw::Diffuse { albedo } => Bsdf::Diffuse { albedo },
         MaterialRaw::Mirror { reflectance } => Bsdf::Mirror { reflectance },
+        MaterialRaw::Conductor { eta, k } => Bsdf::Conductor { eta, k },
         MaterialRaw::Dielectric { ior } => Bsdf::Dielectric { eta: ior },
         MaterialRaw::RoughConductor { roughness, eta, k } => Bsdf::RoughConductor {
             alpha: alpha(roughness),
@@ -460,7 +481,7 @@ fn quad_mesh(corner: DVec3, e1: DVec3, e2: DVec3, mesh: MeshBuilder) -> WorldGeo
 type ObjMesh = (Vec<DVec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>);
 
 /// Reads every object of an OBJ file into one triangle mesh.
-fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String> {
+pub(crate) fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String> {
     if file.is_dir() {
         return Err(format!(
             "{} is a directory, not a mesh file (name an .obj file in it)",

@@ -4,14 +4,14 @@ use crate::{Camera, Light};
 use glam::Vec3;
 use lightlab_core::{Ray, Rgb};
 use lightlab_geometry::{Accel, Hit, Shape};
-use lightlab_materials::Bsdf;
+use lightlab_materials::Material;
 use lightlab_samplers::Distribution1D;
 
 pub struct Scene {
     pub camera: Camera,
     pub accel: Accel,
-    /// BSDF of material id `i` (the `material` of a [`Hit`]).
-    pub materials: Vec<Bsdf>,
+    /// Material id `i` (the `material` of a [`Hit`]): its BSDF and sidedness.
+    pub materials: Vec<Material>,
     pub material_names: Vec<String>,
     pub lights: Vec<Light>,
     /// Power-proportional light selection; `None` when nothing emits.
@@ -34,7 +34,7 @@ impl Scene {
     pub(crate) fn new(
         camera: Camera,
         accel: Accel,
-        materials: Vec<Bsdf>,
+        materials: Vec<Material>,
         material_names: Vec<String>,
         lights: Vec<Light>,
     ) -> Scene {

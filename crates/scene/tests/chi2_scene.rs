@@ -244,6 +244,7 @@ fn camera(lens: Lens) -> Camera {
             fov: 50.0,
             resolution: (32, 18),
             lens,
+            mirrored: false,
         },
         glam::DVec3::ZERO,
     )

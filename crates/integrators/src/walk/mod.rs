@@ -221,8 +221,9 @@ fn trace<S: Sampler, V: Visitor>(
             visitor.escaped(&ray, beta, &arrival, counters);
             return;
         };
-        let bsdf = scene.materials[hit.material as usize];
-        let sb = SurfaceBsdf::new(hit.ns, hit.dpdu, hit.ng, bsdf);
+        let material = scene.materials[hit.material as usize];
+        let bsdf = material.bsdf;
+        let sb = SurfaceBsdf::of(hit.ns, hit.dpdu, hit.ng, material);
         let mut v = PathVertex {
             kind: Kind::Surface,
             p: hit.p,

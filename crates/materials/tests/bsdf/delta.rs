@@ -1,4 +1,4 @@
-//! Delta BSDFs (Mirror, smooth Dielectric) have no density to chi-square test; their samples are
+//! Delta BSDFs (Mirror, smooth Conductor, smooth Dielectric) have no density to chi-square test; their samples are
 //! checked exactly instead, against an independent f64 implementation of the mirror direction,
 //! Snell's law and the unpolarised Fresnel reflectance (Born & Wolf; pbrt-v4 §9.3): the sampled
 //! direction, the lobe chosen for each `u_lobe` (reflection iff u_lobe < R), the selection
@@ -225,5 +225,68 @@ fn fresnel_reference_is_right() {
         );
         // Snell: sin θo = η sin θt.
         assert!((theta.sin() - eta * wt.truncate().length()).abs() < 1e-12);
+    }
+}
+
+/// Unpolarised reflectance of a conductor with complex relative index η + ik (Born & Wolf §14.4),
+/// in f64 complex arithmetic written out by hand: rs = (cos θ − n cos θt)/(cos θ + n cos θt),
+/// rp = (n cos θ − cos θt)/(n cos θ + cos θt), n cos θt = √(n² − sin² θ).
+fn conductor_fresnel_f64(cos: f64, eta: f64, k: f64) -> f64 {
+    let mul = |a: (f64, f64), b: (f64, f64)| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+    let norm2 = |a: (f64, f64)| a.0 * a.0 + a.1 * a.1;
+    let sqrt = |a: (f64, f64)| {
+        let r = norm2(a).sqrt();
+        let re = ((r + a.0) / 2.0).sqrt();
+        let im = ((r - a.0) / 2.0).sqrt().copysign(a.1);
+        (re, im)
+    };
+    let n = (eta, k);
+    let n2 = mul(n, n);
+    let sin2 = 1.0 - cos * cos;
+    let n_cos_t = sqrt((n2.0 - sin2, n2.1));
+    let rs = norm2((cos - n_cos_t.0, -n_cos_t.1)) / norm2((cos + n_cos_t.0, n_cos_t.1));
+    // rp = (n² cos θ − n cos θt)/(n² cos θ + n cos θt) (multiplying num and den by n).
+    let n2c = (n2.0 * cos, n2.1 * cos);
+    let rp = norm2((n2c.0 - n_cos_t.0, n2c.1 - n_cos_t.1))
+        / norm2((n2c.0 + n_cos_t.0, n2c.1 + n_cos_t.1));
+    0.5 * (rs + rp)
+}
+
+#[test]
+fn conductor_reflects_exactly_with_weight_equal_to_its_fresnel_reflectance() {
+    let (eta, k) = (GOLD_ETA, GOLD_K);
+    let bsdf = Bsdf::Conductor { eta, k };
+    let mut rng = rng(7102);
+    for wo in incident_directions() {
+        let cos = (wo.z as f64).abs();
+        let expected = Rgb::new(
+            conductor_fresnel_f64(cos, eta.r as f64, k.r as f64) as f32,
+            conductor_fresnel_f64(cos, eta.g as f64, k.g as f64) as f32,
+            conductor_fresnel_f64(cos, eta.b as f64, k.b as f64) as f32,
+        );
+        for mode in MODES {
+            let s = bsdf
+                .sample(wo, rng.random(), uniform2(&mut rng), mode)
+                .unwrap_or_else(|| panic!("conductor, wo {wo}: no sample"));
+            let ctx = || format!("conductor, wo {wo}, {mode:?}: {s:?}");
+            assert_eq!(s.wi, mirror_direction(wo), "{}", ctx());
+            assert_eq!(s.pdf, 1.0, "{}", ctx());
+            assert!(s.delta && !s.transmission && s.lobe == LobeClass::Specular);
+            assert_rgb_rel(s.weight, expected, 1e-4, &|| format!("{}: weight", ctx()));
+        }
+    }
+    // k = 0 is a dielectric seen from outside: the same reflectance as the smooth interface.
+    for cos in [1.0f64, 0.7, 0.2, 1e-3] {
+        let r = conductor_fresnel_f64(cos, 1.5, 0.0);
+        let wo = Vec3::new((1.0 - cos * cos).sqrt() as f32, 0.0, cos as f32);
+        let d = Bsdf::Dielectric { eta: 1.5 };
+        let s = d
+            .sample(wo, 0.0, Vec2::ZERO, TransportMode::Radiance)
+            .unwrap();
+        assert!(
+            (s.pdf as f64 - r).abs() < 1e-5,
+            "cos {cos}: {} vs {r}",
+            s.pdf
+        );
     }
 }

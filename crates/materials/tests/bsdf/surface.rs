@@ -3,7 +3,7 @@
 
 use crate::common::*;
 use lightlab_core::{Frame, TransportMode, Vec2, Vec3};
-use lightlab_materials::{Bsdf, SurfaceBsdf};
+use lightlab_materials::{Bsdf, Material, SurfaceBsdf};
 use rand::RngExt;
 
 /// A random unit vector and a random tangent-ish vector.
@@ -15,6 +15,10 @@ fn test_bsdfs() -> Vec<Bsdf> {
     vec![
         diffuse(),
         mirror(),
+        Bsdf::Conductor {
+            eta: GOLD_ETA,
+            k: GOLD_K,
+        },
         Bsdf::Dielectric { eta: 1.5 },
         rough_conductor(Vec2::new(0.1, 0.6)),
         Bsdf::RoughDielectric {
@@ -193,4 +197,58 @@ fn surface_bsdf_anisotropy_follows_dpdu() {
         differs > 50,
         "rotating dpdu changed only {differs} of 500 values"
     );
+}
+
+/// A one-sided surface (Mitsuba's reflecting BSDFs) is black from behind — eval, pdf and sample —
+/// and identical to the two-sided one in front.
+#[test]
+fn one_sided_surfaces_are_black_from_behind_and_unchanged_in_front() {
+    let mut rng = rng(52);
+    for bsdf in [
+        diffuse(),
+        mirror(),
+        rough_conductor(Vec2::splat(0.3)),
+        phong(20.0),
+    ] {
+        let material = Material {
+            bsdf,
+            one_sided: true,
+        };
+        let one = SurfaceBsdf::of(Vec3::Z, Vec3::X, Vec3::Z, material);
+        let two = SurfaceBsdf::of(Vec3::Z, Vec3::X, Vec3::Z, Material::two_sided(bsdf));
+        let (mut front_samples, mut back_two_sided) = (0, 0);
+        for _ in 0..200 {
+            let (wo, wi) = (uniform_sphere(&mut rng), uniform_sphere(&mut rng));
+            let (u_lobe, u) = (rng.random::<f32>(), uniform2(&mut rng));
+            for mode in MODES {
+                let (e1, e2) = (one.eval(wo, wi, mode), two.eval(wo, wi, mode));
+                let s1 = one.sample(wo, u_lobe, u, mode);
+                let s2 = two.sample(wo, u_lobe, u, mode);
+                if wo.z < 0.0 || wi.z < 0.0 {
+                    assert!(e1.f.is_black() && e1.pdf_fwd == 0.0, "{bsdf:?} {wo} {wi}");
+                    assert_eq!(one.pdf(wo, wi), 0.0);
+                } else {
+                    assert_eq!(e1.f, e2.f);
+                    assert_eq!(one.pdf(wo, wi), two.pdf(wo, wi));
+                }
+                if wo.z < 0.0 {
+                    assert!(s1.is_none(), "{bsdf:?}: sampled from behind at {wo}");
+                    back_two_sided += s2.is_some() as usize;
+                } else if let (Some(a), Some(b)) = (s1, s2) {
+                    assert_eq!(a.wi, b.wi);
+                    assert_eq!(a.weight, b.weight);
+                    front_samples += 1;
+                }
+            }
+        }
+        assert!(
+            front_samples > 100,
+            "{bsdf:?}: {front_samples} front samples"
+        );
+        // The two-sided surface does scatter from behind, so the test sees the difference.
+        assert!(
+            back_two_sided > 50,
+            "{bsdf:?}: {back_two_sided} back samples"
+        );
+    }
 }

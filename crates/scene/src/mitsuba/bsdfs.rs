@@ -1,0 +1,207 @@
+//! Mitsuba BSDF plugins as Lightlab materials, with Mitsuba's defaults and its sidedness: reflecting
+//! BSDFs are one-sided (black from behind) unless wrapped in `twosided`; dielectrics are two-sided.
+
+use super::Refs;
+use super::object::Object;
+use super::presets::{CONDUCTORS, DIELECTRICS};
+use super::xml::Element;
+use crate::SceneError;
+use crate::desc::{MaterialDesc, MaterialRaw, Roughness};
+use lightlab_core::Rgb;
+
+/// The material of a `<bsdf>` element (resolving a nested `twosided`).
+pub(crate) fn material(el: &Element, refs: &Refs) -> Result<MaterialDesc, SceneError> {
+    let o = Object::new(el)?;
+    let (raw, one_sided) = match o.ty {
+        "twosided" => {
+            let inner = o.nested(&["bsdf", "ref"]);
+            let [inner] = inner[..] else {
+                return Err(o.error(format!(
+                    "{} with {} nested BSDFs: Lightlab imports twosided with one BSDF (the same \
+                     on both sides)",
+                    o.describe(),
+                    inner.len()
+                )));
+            };
+            let inner = refs.resolve(inner, "bsdf")?;
+            o.finish()?;
+            let m = material(inner, refs)?;
+            return Ok(MaterialDesc {
+                one_sided: false,
+                ..m
+            });
+        }
+        "diffuse" => (
+            MaterialRaw::Diffuse {
+                albedo: o.color("reflectance")?.unwrap_or(Rgb::splat(0.5)),
+            },
+            true,
+        ),
+        "conductor" => {
+            let (eta, k) = complex_ior(&o)?;
+            let raw = match (eta, k) {
+                // Mitsuba's material "none": a perfect mirror scaled by specular_reflectance.
+                (None, _) => MaterialRaw::Mirror {
+                    reflectance: o.color("specular_reflectance")?.unwrap_or(Rgb::WHITE),
+                },
+                (Some(eta), k) => {
+                    unit_scale(&o)?;
+                    MaterialRaw::Conductor { eta, k }
+                }
+            };
+            (raw, true)
+        }
+        "roughconductor" => {
+            let roughness = roughness(&o)?;
+            let (eta, k) = complex_ior(&o)?;
+            unit_scale(&o)?;
+            (
+                MaterialRaw::RoughConductor {
+                    roughness,
+                    eta: eta.unwrap_or(Rgb::BLACK),
+                    k,
+                },
+                true,
+            )
+        }
+        "dielectric" => {
+            let ior = relative_ior(&o)?;
+            unit_scales(&o)?;
+            (MaterialRaw::Dielectric { ior }, false)
+        }
+        "roughdielectric" => {
+            let roughness = roughness(&o)?;
+            let ior = relative_ior(&o)?;
+            unit_scales(&o)?;
+            (MaterialRaw::RoughDielectric { roughness, ior }, false)
+        }
+        other => {
+            return Err(o.error(format!(
+                "BSDF type '{other}' is not imported (supported: diffuse, conductor, \
+                 roughconductor, dielectric, roughdielectric, twosided)"
+            )));
+        }
+    };
+    o.finish()?;
+    let mut m =
+        MaterialDesc::try_from(raw).map_err(|e| o.error(format!("{}: {e}", o.describe())))?;
+    m.one_sided = one_sided;
+    Ok(m)
+}
+
+/// η and k of a conductor: `material` (a preset name, default "none") or `eta` and `k` colours.
+/// `None` for η means Mitsuba's "none" (η = 0, k = 1: every channel reflects fully).
+fn complex_ior(o: &Object) -> Result<(Option<Rgb>, Rgb), SceneError> {
+    let (eta, k) = (o.color("eta")?, o.color("k")?);
+    match o.string("material")? {
+        Some(name) if eta.is_some() || k.is_some() => Err(o.error(format!(
+            "{} gives both material=\"{name}\" and eta/k: give one",
+            o.describe()
+        ))),
+        Some("none") => Ok((None, Rgb::WHITE)),
+        Some(name) => CONDUCTORS
+            .iter()
+            .find(|(n, ..)| *n == name)
+            .map(|&(_, eta, k)| (Some(eta), k))
+            .ok_or_else(|| {
+                o.error(format!(
+                    "unknown conductor material \"{name}\" (Mitsuba's presets: none, {})",
+                    CONDUCTORS
+                        .iter()
+                        .map(|(n, ..)| *n)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))
+            }),
+        None => match (eta, k) {
+            (None, None) => Ok((None, Rgb::WHITE)),
+            (eta, k) => Ok((Some(eta.unwrap_or(Rgb::BLACK)), k.unwrap_or(Rgb::WHITE))),
+        },
+    }
+}
+
+/// GGX roughness from `alpha` or `alpha_u`/`alpha_v` (default 0.1, Mitsuba's).
+fn roughness(o: &Object) -> Result<Roughness, SceneError> {
+    match o.string("distribution")?.unwrap_or("beckmann") {
+        "ggx" => {}
+        "beckmann" => {
+            return Err(o.error(format!(
+                "{} uses the Beckmann distribution (Mitsuba's default): Lightlab's microfacet \
+                 BSDFs are GGX; set <string name=\"distribution\" value=\"ggx\"/>",
+                o.describe()
+            )));
+        }
+        d => return Err(o.error(format!("unknown microfacet distribution '{d}'"))),
+    }
+    // Lightlab always samples visible normals; the flag changes only Mitsuba's sampling.
+    o.boolean("sample_visible", true)?;
+    let alpha = o.float("alpha")?;
+    let (u, v) = (o.float("alpha_u")?, o.float("alpha_v")?);
+    let r = match (alpha, u, v) {
+        (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
+            return Err(o.error("give either alpha or alpha_u and alpha_v, not both"));
+        }
+        (Some(a), None, None) => Roughness::Isotropic(a as f32),
+        (None, None, None) => Roughness::Isotropic(0.1),
+        (None, Some(u), Some(v)) => Roughness::Anisotropic(u as f32, v as f32),
+        (None, _, _) => return Err(o.error("alpha_u and alpha_v must be given together")),
+    };
+    Ok(r)
+}
+
+/// `int_ior / ext_ior`, each a number or one of Mitsuba's named media (defaults bk7 and air).
+fn relative_ior(o: &Object) -> Result<f32, SceneError> {
+    let ior = |name: &str, default: &str| -> Result<f64, SceneError> {
+        if let Ok(Some(x)) = o.float(name) {
+            return Ok(x);
+        }
+        let preset = o.string(name)?.unwrap_or(default);
+        DIELECTRICS
+            .iter()
+            .find(|(n, _)| *n == preset)
+            .map(|&(_, v)| v as f64)
+            .ok_or_else(|| {
+                o.error(format!(
+                    "{name}: unknown medium \"{preset}\" (give a number or one of: {})",
+                    DIELECTRICS
+                        .iter()
+                        .map(|(n, _)| *n)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))
+            })
+    };
+    let (int, ext) = (ior("int_ior", "bk7")?, ior("ext_ior", "air")?);
+    if !(int > 0.0 && ext > 0.0) {
+        return Err(o.error(format!(
+            "int_ior and ext_ior must be > 0, got {int} and {ext}"
+        )));
+    }
+    Ok((int / ext) as f32)
+}
+
+/// Lightlab's Fresnel conductors have no extra scale factor: `specular_reflectance` must be 1.
+fn unit_scale(o: &Object) -> Result<(), SceneError> {
+    match o.color("specular_reflectance")? {
+        Some(c) if c != Rgb::WHITE => Err(o.error(format!(
+            "{}: specular_reflectance ≠ 1 with a Fresnel conductor is not imported",
+            o.describe()
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// Dielectrics: `specular_reflectance` and `specular_transmittance` (non-physical scales) must be 1.
+fn unit_scales(o: &Object) -> Result<(), SceneError> {
+    for name in ["specular_reflectance", "specular_transmittance"] {
+        if let Some(c) = o.color(name)?
+            && c != Rgb::WHITE
+        {
+            return Err(o.error(format!(
+                "{}: {name} ≠ 1 (a non-physical scale) is not imported",
+                o.describe()
+            )));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,77 @@
+//! Mitsuba emitters: `area` (on a shape), `point` and `constant`.
+
+use super::object::Object;
+use super::xml::Element;
+use crate::SceneError;
+use crate::desc::{EmissionDesc, LightDesc, LightRaw};
+use glam::DVec3;
+use lightlab_core::Rgb;
+
+/// The emission of an `<emitter type="area">` nested in a shape: one-sided, like Mitsuba's.
+pub(crate) fn area(el: &Element) -> Result<EmissionDesc, SceneError> {
+    let o = Object::new(el)?;
+    if o.ty != "area" {
+        return Err(o.error(format!(
+            "a shape's emitter must be type 'area', not '{}'",
+            o.ty
+        )));
+    }
+    let radiance = o.color("radiance")?.unwrap_or(Rgb::WHITE);
+    o.finish()?;
+    non_negative(&o, "radiance", radiance)?;
+    Ok(EmissionDesc {
+        radiance,
+        two_sided: false,
+    })
+}
+
+/// A top-level `<emitter>`.
+pub(crate) fn light(el: &Element) -> Result<LightDesc, SceneError> {
+    let o = Object::new(el)?;
+    let raw = match o.ty {
+        "point" => {
+            let position = match (o.point("position")?, o.transform("to_world")?) {
+                (Some(_), Some(_)) => {
+                    return Err(o.error("a point light takes position or to_world, not both"));
+                }
+                (Some(p), None) => p,
+                (None, Some(m)) => m.transform_point3(DVec3::ZERO),
+                (None, None) => DVec3::ZERO,
+            };
+            let intensity = o.color("intensity")?.unwrap_or(Rgb::WHITE);
+            non_negative(&o, "intensity", intensity)?;
+            LightRaw::Point {
+                position,
+                intensity,
+            }
+        }
+        "constant" => {
+            let radiance = o.color("radiance")?.unwrap_or(Rgb::WHITE);
+            non_negative(&o, "radiance", radiance)?;
+            LightRaw::Environment { radiance }
+        }
+        "area" => {
+            return Err(o.error(
+                "an area emitter belongs inside the <shape> that emits (Mitsuba's syntax)",
+            ));
+        }
+        other => {
+            return Err(o.error(format!(
+                "emitter type '{other}' is not imported (supported: area, point, constant)"
+            )));
+        }
+    };
+    o.finish()?;
+    LightDesc::try_from(raw).map_err(|e| o.error(e))
+}
+
+fn non_negative(o: &Object, what: &str, c: Rgb) -> Result<(), SceneError> {
+    if c.to_array().iter().all(|x| *x >= 0.0 && x.is_finite()) {
+        Ok(())
+    } else {
+        Err(o.error(format!(
+            "{}: {what} must be ≥ 0 and finite per channel",
+            o.describe()
+        )))
+    }
+}

@@ -1,0 +1,268 @@
+//! Reading Mitsuba 3 XML: the files (with `<include>`), `<default>` parameters and `$name`
+//! substitution, into an owned element tree in which every element remembers its file, line and
+//! column for error messages.
+
+use crate::SceneError;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+/// Where an element starts: file, 1-based line and column.
+#[derive(Clone, Debug)]
+pub(crate) struct Location {
+    pub file: Rc<PathBuf>,
+    pub line: usize,
+    pub col: usize,
+}
+
+impl Location {
+    /// An error at this location.
+    pub fn error(&self, message: impl Into<String>) -> SceneError {
+        SceneError::Invalid {
+            path: self.file.to_path_buf(),
+            line: self.line,
+            col: self.col,
+            message: message.into(),
+        }
+    }
+}
+
+/// An XML element with its attributes (parameters substituted) and child elements.
+#[derive(Debug)]
+pub(crate) struct Element {
+    pub tag: String,
+    pub attrs: Vec<(String, String)>,
+    pub children: Vec<Element>,
+    pub at: Location,
+}
+
+impl Element {
+    pub fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// A required attribute.
+    pub fn require(&self, name: &str) -> Result<&str, SceneError> {
+        self.attr(name).ok_or_else(|| {
+            self.at
+                .error(format!("<{}> needs a '{name}' attribute", self.tag))
+        })
+    }
+
+    /// Rejects attributes other than `allowed`.
+    pub fn only_attrs(&self, allowed: &[&str]) -> Result<(), SceneError> {
+        match self
+            .attrs
+            .iter()
+            .find(|(n, _)| !allowed.contains(&n.as_str()))
+        {
+            Some((n, _)) => Err(self.at.error(format!(
+                "<{}> has an unknown attribute '{n}' (allowed: {})",
+                self.tag,
+                allowed.join(", ")
+            ))),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Scene parameters: `<default>` values, overridden by the command line's `-D name=value`.
+pub(crate) struct Params {
+    values: BTreeMap<String, String>,
+    /// Names given on the command line, and whether the scene used them.
+    defines: BTreeMap<String, bool>,
+}
+
+impl Params {
+    pub fn new(defines: &[(String, String)]) -> Params {
+        Params {
+            values: defines.iter().cloned().collect(),
+            defines: defines.iter().map(|(n, _)| (n.clone(), false)).collect(),
+        }
+    }
+
+    /// A `-D` name the scene never refers to is a typo, or a parameter of another scene.
+    pub fn check_used(&self, root: &Path) -> Result<(), SceneError> {
+        match self.defines.iter().find(|(_, used)| !**used) {
+            Some((name, _)) => Err(SceneError::Invalid {
+                path: root.to_path_buf(),
+                line: 1,
+                col: 1,
+                message: format!(
+                    "-D {name}=…: the scene has no parameter ${name} (its parameters: {})",
+                    if self.values.is_empty() {
+                        "none".to_string()
+                    } else {
+                        self.values.keys().cloned().collect::<Vec<_>>().join(", ")
+                    }
+                ),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// `value` with every `$name` replaced by the parameter's value (Mitsuba 3's substitution).
+    fn substitute(&mut self, value: &str, at: &Location) -> Result<String, SceneError> {
+        let mut out = String::with_capacity(value.len());
+        let mut rest = value;
+        while let Some(i) = rest.find('$') {
+            out.push_str(&rest[..i]);
+            let after = &rest[i + 1..];
+            let len = after
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .unwrap_or(after.len());
+            let name = &after[..len];
+            if name.is_empty() {
+                return Err(at.error(format!(
+                    "'{value}': '$' must be followed by a parameter name"
+                )));
+            }
+            let v = self.values.get(name).ok_or_else(|| {
+                at.error(format!(
+                    "${name} is not defined: declare <default name=\"{name}\" value=\"…\"/> or \
+                     pass -D {name}=…"
+                ))
+            })?;
+            out.push_str(v);
+            if let Some(used) = self.defines.get_mut(name) {
+                *used = true;
+            }
+            rest = &after[len..];
+        }
+        out.push_str(rest);
+        Ok(out)
+    }
+}
+
+/// Reads `path` (a `<scene>` file) and the files it includes into the list of the scene's elements.
+pub(crate) fn read_scene(path: &Path, params: &mut Params) -> Result<Vec<Element>, SceneError> {
+    read_file(path, params, &mut vec![path.to_path_buf()])
+}
+
+fn read_file(
+    path: &Path,
+    params: &mut Params,
+    stack: &mut Vec<PathBuf>,
+) -> Result<Vec<Element>, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let file = Rc::new(path.to_path_buf());
+    let doc = roxmltree::Document::parse(&text).map_err(|e| {
+        let pos = e.pos();
+        SceneError::Invalid {
+            path: path.to_path_buf(),
+            line: pos.row as usize,
+            col: pos.col as usize,
+            message: format!("not well-formed XML: {e}"),
+        }
+    })?;
+    let locate = |node: roxmltree::Node| {
+        let pos = doc.text_pos_at(node.range().start);
+        Location {
+            file: file.clone(),
+            line: pos.row as usize,
+            col: pos.col as usize,
+        }
+    };
+    let root = doc.root_element();
+    let at = locate(root);
+    if root.tag_name().name() != "scene" {
+        return Err(at.error(format!(
+            "the root element is <{}>; a Mitsuba scene file starts with <scene version=\"3.0.0\">",
+            root.tag_name().name()
+        )));
+    }
+    let version = root
+        .attribute("version")
+        .ok_or_else(|| at.error("<scene> needs a version attribute, e.g. version=\"3.0.0\""))?;
+    let major: u32 = version
+        .split('.')
+        .next()
+        .and_then(|m| m.trim().parse().ok())
+        .ok_or_else(|| at.error(format!("<scene version=\"{version}\"> is not a version")))?;
+    if major < 2 {
+        return Err(at.error(format!(
+            "scene version {version} is Mitsuba 0.x syntax (camelCase parameters); only version \
+             2 and 3 files are read — upgrade it with Mitsuba 3 (it converts old files on load)"
+        )));
+    }
+    // Defaults first (Mitsuba declares them at the top): the command line's -D values win.
+    for node in root.children().filter(|n| n.is_element()) {
+        if node.tag_name().name() == "default" {
+            let at = locate(node);
+            let name = node
+                .attribute("name")
+                .ok_or_else(|| at.error("<default> needs a name"))?;
+            let value = node
+                .attribute("value")
+                .ok_or_else(|| at.error("<default> needs a value"))?;
+            params
+                .values
+                .entry(name.to_string())
+                .or_insert_with(|| value.to_string());
+        }
+    }
+    let mut elements = Vec::new();
+    for node in root.children().filter(|n| n.is_element()) {
+        match node.tag_name().name() {
+            "default" => {}
+            "include" => {
+                let at = locate(node);
+                let name = params.substitute(
+                    node.attribute("filename")
+                        .ok_or_else(|| at.error("<include> needs a filename"))?,
+                    &at,
+                )?;
+                let included = path.parent().unwrap_or(Path::new(".")).join(&name);
+                if stack.contains(&included) {
+                    return Err(at.error(format!("{name} includes itself (directly or not)")));
+                }
+                if !included.is_file() {
+                    return Err(at.error(format!(
+                        "included file {} does not exist",
+                        included.display()
+                    )));
+                }
+                stack.push(included.clone());
+                elements.extend(read_file(&included, params, stack)?);
+                stack.pop();
+            }
+            _ => elements.push(element(node, params, &locate)?),
+        }
+    }
+    Ok(elements)
+}
+
+fn element(
+    node: roxmltree::Node,
+    params: &mut Params,
+    locate: &dyn Fn(roxmltree::Node) -> Location,
+) -> Result<Element, SceneError> {
+    let at = locate(node);
+    let mut attrs = Vec::new();
+    for a in node.attributes() {
+        attrs.push((a.name().to_string(), params.substitute(a.value(), &at)?));
+    }
+    let mut children = Vec::new();
+    for child in node.children() {
+        if child.is_element() {
+            children.push(element(child, params, locate)?);
+        } else if child.is_text() && !child.text().unwrap_or("").trim().is_empty() {
+            return Err(locate(child).error(format!(
+                "text inside <{}> is not part of Mitsuba's format (values go in attributes)",
+                node.tag_name().name()
+            )));
+        }
+    }
+    Ok(Element {
+        tag: node.tag_name().name().to_string(),
+        attrs,
+        children,
+        at,
+    })
+}
