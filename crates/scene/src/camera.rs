@@ -228,10 +228,19 @@ mod tests {
         for (x, y) in [(3.5f32, 10.25f32), (40.0, 47.0), (63.9, 0.1)] {
             let a = plain.generate_ray(Vec2::new(x, y), Vec2::ZERO);
             let b = mirrored.generate_ray(Vec2::new(64.0 - x, y), Vec2::ZERO);
-            assert!((a.d - b.d).length() < 1e-6, "({x}, {y}): {} vs {}", a.d, b.d);
+            assert!(
+                (a.d - b.d).length() < 1e-6,
+                "({x}, {y}): {} vs {}",
+                a.d,
+                b.d
+            );
             let p = a.o + a.d * 2.0;
             let s = mirrored.sample_wi(p, Vec2::ZERO).unwrap();
-            assert!((s.raster - Vec2::new(64.0 - x, y)).length() < 1e-3, "{:?}", s.raster);
+            assert!(
+                (s.raster - Vec2::new(64.0 - x, y)).length() < 1e-3,
+                "{:?}",
+                s.raster
+            );
         }
         assert_eq!(plain.up, mirrored.up);
     }

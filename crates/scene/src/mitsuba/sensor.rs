@@ -71,7 +71,16 @@ pub(crate) fn sensor(el: &Element) -> Result<Sensor, SceneError> {
 
     let mut resolution = (768, 576);
     let mut spp = None;
-    for child in o.nested(&["film", "sampler"]) {
+    let nested = o.nested(&["film", "sampler"]);
+    if !nested.iter().any(|c| c.tag == "film") {
+        notes.push(format!(
+            "{}:{}: the sensor has no film: Mitsuba's default is 768 × 576 with a gaussian \
+             reconstruction filter; Lightlab's pixels are box-filtered",
+            el.at.file.display(),
+            el.at.line
+        ));
+    }
+    for child in nested {
         let c = Object::new(child)?;
         match (child.tag.as_str(), c.ty) {
             ("film", "hdrfilm") => {
