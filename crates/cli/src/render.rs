@@ -119,7 +119,7 @@ fn load(args: &RenderArgs) -> Result<(Scene, Option<String>, Option<u32>), Strin
     if lightlab_scene::mitsuba::is_mitsuba(&args.scene) {
         if !args.set.is_empty() {
             return Err(format!(
-                "--set edits RON scenes; {} is a Mitsuba file: override its parameters with -D                  NAME=VALUE",
+                "--set edits RON scenes; {} is a Mitsuba file: override its parameters with -D NAME=VALUE",
                 args.scene.display()
             ));
         }

@@ -387,3 +387,49 @@ fn compare_two_renders() {
     assert!(code == Some(1) && err.contains("past"), "{err}");
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// A Mitsuba file renders with its own integrator and sample count (both recorded in the JSON),
+/// `-D` overrides its defaults, and the flags that belong to the other format are refused.
+#[test]
+fn mitsuba_files_render_with_their_settings_and_defines() {
+    let dir = temp_dir("mitsuba");
+    let scene = repo().join("scenes/mitsuba/materials.xml");
+    let out = dir.join("m.exr");
+    let (ok, stdout, stderr) = render_with(&scene, &["-D", "res=16", "-D", "spp=3"], &out);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("16×16 at 3 spp"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("m.json")).unwrap()).unwrap();
+    let integrator = json["integrator"].as_str().unwrap();
+    assert!(
+        integrator.starts_with("Path(max_bounces: 7, min_bounces: 0, russian_roulette: 5"),
+        "max_depth 8 is 7 bounces: {integrator}"
+    );
+    // --spp and --integrator win over the file's.
+    let (ok, stdout, stderr) = render_with(
+        &scene,
+        &[
+            "-D",
+            "res=8",
+            "--spp",
+            "2",
+            "--integrator",
+            "Bdpt(max_bounces: 2)",
+        ],
+        &out,
+    );
+    assert!(
+        ok && stdout.contains("8×8 at 2 spp") && stdout.starts_with("Bdpt"),
+        "{stdout}{stderr}"
+    );
+    for (args, expect) in [
+        (vec!["-D", "nope=1"], "no parameter $nope"),
+        (vec!["--set", "camera.fov=10"], "with -D NAME=VALUE"),
+    ] {
+        let (ok, _, stderr) = render_with(&scene, &args, &out);
+        assert!(!ok && stderr.contains(expect), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    let (ok, _, stderr) = render_with(&repo().join("scenes/cornell-box.ron"), &["-D", "a=1"], &out);
+    assert!(!ok && stderr.contains("use --set"), "{stderr}");
+}

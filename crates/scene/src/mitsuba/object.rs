@@ -310,7 +310,7 @@ fn transform(t: &Element) -> Result<DMat4, SceneError> {
                     .trim()
                     .parse()
                     .map_err(|_| c.at.error("<rotate> angle is not a number"))?;
-                DMat4::from_axis_angle(axis.normalize(), angle.to_radians())
+                rotation(axis, angle.to_radians())
             }
             "matrix" => {
                 c.only_attrs(&["value"])?;
@@ -369,4 +369,19 @@ fn transform(t: &Element) -> Result<DMat4, SceneError> {
         return Err(t.at.error("the transform is singular or not finite"));
     }
     Ok(m)
+}
+
+/// Mitsuba 3's rotation about `a` by `theta`: Rodrigues' formula cos θ·I + sin θ·[a]× +
+/// (1 − cos θ)·a aᵀ with the axis as given. Mitsuba does not normalise it, so an axis that is not
+/// unit length (e.g. `x="1" y="1"`) gives a rotation combined with a scale and shear; the import
+/// reproduces that exactly.
+fn rotation(a: DVec3, theta: f64) -> DMat4 {
+    let (s, c) = theta.sin_cos();
+    let outer = DMat3::from_cols(a * a.x, a * a.y, a * a.z);
+    let cross = DMat3::from_cols(
+        DVec3::new(0.0, a.z, -a.y),
+        DVec3::new(-a.z, 0.0, a.x),
+        DVec3::new(a.y, -a.x, 0.0),
+    );
+    DMat4::from_mat3(DMat3::IDENTITY * c + cross * s + outer * (1.0 - c))
 }
