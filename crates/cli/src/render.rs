@@ -159,21 +159,33 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         "bounces" => Layers::Bounces,
         list => Layers::Classes(list.split(',').map(|e| e.trim().to_string()).collect()),
     });
+    // The command line is checked before the scene is read (as for a RON scene, whose errors
+    // come after those of the flags).
+    let parse = |ron: &str, what: &str| {
+        IntegratorConfig::from_ron(ron).map_err(|e| format!("{what} '{ron}': {e}"))
+    };
+    let given = args
+        .integrator
+        .as_deref()
+        .map(|i| parse(i, "--integrator"))
+        .transpose()?;
+    if let Some(s) = args.seconds {
+        Budget::Seconds(s)
+            .check()
+            .map_err(|e| format!("--seconds: {e}"))?;
+    }
     let output = exr_path(&args.output)?;
     let (mut scene, file_integrator, file_spp) = load(&args)?;
-    let (integrator_ron, what) = match (&args.integrator, file_integrator) {
-        (Some(i), _) => (i.clone(), "--integrator"),
-        (None, Some(i)) => (i, "the scene's integrator"),
-        (None, None) => ("Path()".to_string(), "--integrator"),
-    };
-    let config = IntegratorConfig::from_ron(&integrator_ron)
-        .map_err(|e| format!("{what} '{integrator_ron}': {e}"))?
-        .with_paths_and_layers(args.paths.clone(), layers)?;
+    let config = match (given, file_integrator) {
+        (Some(c), _) => c,
+        (None, Some(i)) => parse(&i, "the scene's integrator")?,
+        (None, None) => parse("Path()", "--integrator")?,
+    }
+    .with_paths_and_layers(args.paths.clone(), layers)?;
     let budget = match args.seconds {
         Some(s) => Budget::Seconds(s),
         None => Budget::Samples(args.spp.or(file_spp).unwrap_or(16)),
     };
-    budget.check().map_err(|e| format!("--seconds: {e}"))?;
     if let Some((w, h)) = args.resolution {
         scene.camera = scene.camera.with_resolution(w, h);
     }

@@ -4,12 +4,13 @@
 //!
 //! ```
 //! use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
-//! use lightlab_materials::{Bsdf, SurfaceBsdf};
+//! use lightlab_materials::{Bsdf, Distribution, SurfaceBsdf};
 //!
 //! let bsdf = Bsdf::RoughConductor {
 //!     alpha: Vec2::splat(0.2),
 //!     eta: Rgb::new(0.143, 0.374, 1.442), // gold
 //!     k: Rgb::new(3.983, 2.385, 1.603),
+//!     distribution: Distribution::Ggx,
 //! };
 //! let surface = SurfaceBsdf::new(Vec3::Z, Vec3::X, Vec3::Z, bsdf);
 //! let wo = Vec3::new(0.6, 0.0, 0.8);
@@ -32,7 +33,7 @@
 //!   does not. Shading-normal corrections are the business of [`SurfaceBsdf`].
 //! - `f` never includes the cosine. Pdfs are per unit solid angle and include the probability of
 //!   choosing the lobe.
-//! - Delta lobes (Mirror, Conductor, smooth Dielectric) are invisible to `eval`/`pdf` (both zero). Their samples
+//! - Delta lobes (Mirror, Conductor, ThinDielectric, smooth Dielectric) are invisible to `eval`/`pdf` (both zero). Their samples
 //!   follow pbrt: `f` is the delta coefficient divided by |cos θi| and `pdf` is the discrete
 //!   probability of choosing the lobe, so `weight = f·|cos θi| / pdf` holds for every sample.
 //! - Nothing here returns NaN or ±∞: `eval` gives zero and `sample` gives `None` instead.
@@ -46,7 +47,7 @@ mod rough_dielectric;
 mod specular;
 mod surface;
 
-pub use microfacet::ALPHA_MIN;
+pub use microfacet::{ALPHA_MIN, Distribution};
 pub use surface::{Material, SurfaceBsdf};
 
 use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
@@ -154,21 +155,47 @@ impl BsdfSample {
 /// | `Diffuse` | `albedo` | Lambertian reflectance; two-sided (reflects on whichever side `wo` is) |
 /// | `Mirror` | `reflectance` | perfect specular reflection, two-sided |
 /// | `Conductor` | `eta`, `k` | smooth metal: specular reflection weighted by the conductor Fresnel term for complex IOR η + ik per channel; two-sided |
+/// | `ThinDielectric` | `eta` | a thin sheet of glass: reflection 2R/(1 + R) (inter-reflections summed), the rest transmitted straight through; two-sided |
 /// | `Dielectric` | `eta` | smooth glass, η = IOR inside / IOR outside, outside = +z side; exact unpolarised Fresnel |
-/// | `RoughConductor` | `alpha`, `eta`, `k` | GGX, anisotropic α (x along the frame's `s`, y along `t`), height-correlated Smith G2, conductor Fresnel with complex IOR η + ik per channel, VNDF sampling; two-sided |
-/// | `RoughDielectric` | `alpha`, `eta` | Walter et al. 2007 rough glass with GGX, VNDF sampling, Fresnel choice of reflection or refraction. η = 1 makes the interface invisible and this model degenerate: it then transmits nothing (pbrt-v4 switches to a pass-through; use no surface instead) |
+/// | `RoughConductor` | `alpha`, `eta`, `k`, `distribution` | GGX or Beckmann, anisotropic α (x along the frame's `s`, y along `t`), height-correlated Smith G2, conductor Fresnel with complex IOR η + ik per channel, VNDF sampling; two-sided |
+/// | `RoughDielectric` | `alpha`, `eta`, `distribution` | Walter et al. 2007 rough glass with GGX (VNDF sampling) or Beckmann (D cos θ sampling), Fresnel choice of reflection or refraction. η = 1 makes the interface invisible and this model degenerate: it then transmits nothing (pbrt-v4 switches to a pass-through; use no surface instead) |
 /// | `Phong` | `kd`, `ks`, `exponent` | modified Phong (Lafortune & Willems 1994), energy-conserving when kd + ks ≤ 1; two-sided |
 ///
 /// Roughness below [`ALPHA_MIN`] is raised to it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bsdf {
-    Diffuse { albedo: Rgb },
-    Mirror { reflectance: Rgb },
-    Conductor { eta: Rgb, k: Rgb },
-    Dielectric { eta: f32 },
-    RoughConductor { alpha: Vec2, eta: Rgb, k: Rgb },
-    RoughDielectric { alpha: Vec2, eta: f32 },
-    Phong { kd: Rgb, ks: Rgb, exponent: f32 },
+    Diffuse {
+        albedo: Rgb,
+    },
+    Mirror {
+        reflectance: Rgb,
+    },
+    Conductor {
+        eta: Rgb,
+        k: Rgb,
+    },
+    ThinDielectric {
+        eta: f32,
+    },
+    Dielectric {
+        eta: f32,
+    },
+    RoughConductor {
+        alpha: Vec2,
+        eta: Rgb,
+        k: Rgb,
+        distribution: Distribution,
+    },
+    RoughDielectric {
+        alpha: Vec2,
+        eta: f32,
+        distribution: Distribution,
+    },
+    Phong {
+        kd: Rgb,
+        ks: Rgb,
+        exponent: f32,
+    },
 }
 
 impl Bsdf {
@@ -177,15 +204,21 @@ impl Bsdf {
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> BsdfEval {
         let e = match *self {
             Bsdf::Diffuse { albedo } => diffuse::eval(albedo, wo, wi),
-            Bsdf::Mirror { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
-                BsdfEval::ZERO
-            }
-            Bsdf::RoughConductor { alpha, eta, k } => {
-                RoughConductor::new(alpha, eta, k).eval(wo, wi)
-            }
-            Bsdf::RoughDielectric { alpha, eta } => {
-                RoughDielectric::new(alpha, eta).eval(wo, wi, mode)
-            }
+            Bsdf::Mirror { .. }
+            | Bsdf::Conductor { .. }
+            | Bsdf::ThinDielectric { .. }
+            | Bsdf::Dielectric { .. } => BsdfEval::ZERO,
+            Bsdf::RoughConductor {
+                alpha,
+                eta,
+                k,
+                distribution,
+            } => RoughConductor::new(distribution, alpha, eta, k).eval(wo, wi),
+            Bsdf::RoughDielectric {
+                alpha,
+                eta,
+                distribution,
+            } => RoughDielectric::new(distribution, alpha, eta).eval(wo, wi, mode),
             Bsdf::Phong { kd, ks, exponent } => Phong::new(kd, ks, exponent).eval(wo, wi),
         };
         e.finite_or_zero()
@@ -209,13 +242,19 @@ impl Bsdf {
             Bsdf::Diffuse { albedo } => Some(diffuse::sample(albedo, wo, u)),
             Bsdf::Mirror { reflectance } => Some(specular::sample_mirror(reflectance, wo)),
             Bsdf::Conductor { eta, k } => Some(specular::sample_conductor(eta, k, wo)),
+            Bsdf::ThinDielectric { eta } => Some(specular::sample_thin_dielectric(eta, wo, u_lobe)),
             Bsdf::Dielectric { eta } => specular::sample_dielectric(eta, wo, u_lobe, mode),
-            Bsdf::RoughConductor { alpha, eta, k } => {
-                RoughConductor::new(alpha, eta, k).sample(wo, u)
-            }
-            Bsdf::RoughDielectric { alpha, eta } => {
-                RoughDielectric::new(alpha, eta).sample(wo, u_lobe, u, mode)
-            }
+            Bsdf::RoughConductor {
+                alpha,
+                eta,
+                k,
+                distribution,
+            } => RoughConductor::new(distribution, alpha, eta, k).sample(wo, u),
+            Bsdf::RoughDielectric {
+                alpha,
+                eta,
+                distribution,
+            } => RoughDielectric::new(distribution, alpha, eta).sample(wo, u_lobe, u, mode),
             Bsdf::Phong { kd, ks, exponent } => Phong::new(kd, ks, exponent).sample(wo, u_lobe, u),
         }?;
         s.is_finite_and_positive().then_some(s)
@@ -226,11 +265,21 @@ impl Bsdf {
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let pdf = match *self {
             Bsdf::Diffuse { .. } => diffuse::pdf(wo, wi),
-            Bsdf::Mirror { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
-            Bsdf::RoughConductor { alpha, eta, k } => {
-                RoughConductor::new(alpha, eta, k).pdf(wo, wi)
-            }
-            Bsdf::RoughDielectric { alpha, eta } => RoughDielectric::new(alpha, eta).pdf(wo, wi),
+            Bsdf::Mirror { .. }
+            | Bsdf::Conductor { .. }
+            | Bsdf::ThinDielectric { .. }
+            | Bsdf::Dielectric { .. } => 0.0,
+            Bsdf::RoughConductor {
+                alpha,
+                eta,
+                k,
+                distribution,
+            } => RoughConductor::new(distribution, alpha, eta, k).pdf(wo, wi),
+            Bsdf::RoughDielectric {
+                alpha,
+                eta,
+                distribution,
+            } => RoughDielectric::new(distribution, alpha, eta).pdf(wo, wi),
             Bsdf::Phong { kd, ks, exponent } => Phong::new(kd, ks, exponent).pdf(wo, wi),
         };
         if pdf.is_finite() { pdf } else { 0.0 }
@@ -241,21 +290,25 @@ impl Bsdf {
     pub fn is_delta(&self) -> bool {
         matches!(
             self,
-            Bsdf::Mirror { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. }
+            Bsdf::Mirror { .. }
+                | Bsdf::Conductor { .. }
+                | Bsdf::ThinDielectric { .. }
+                | Bsdf::Dielectric { .. }
         )
     }
 
     /// Heckbert class of the material as a whole: `Diffuse` and microfacet surfaces at least as
-    /// rough as [`DIFFUSE_ALPHA`] are `D`, `Mirror`, `Conductor` and smooth `Dielectric` are `S`, smoother
+    /// rough as [`DIFFUSE_ALPHA`] are `D`, `Mirror`, `Conductor`, `ThinDielectric` and smooth `Dielectric` are `S`, smoother
     /// microfacet surfaces and `Phong` are `G`. A Phong sample still reports
     /// [`LobeClass::Diffuse`] in [`BsdfSample::lobe`] when its diffuse lobe was chosen.
     #[inline]
     pub fn lobe_class(&self) -> LobeClass {
         match self {
             Bsdf::Diffuse { .. } => LobeClass::Diffuse,
-            Bsdf::Mirror { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
-                LobeClass::Specular
-            }
+            Bsdf::Mirror { .. }
+            | Bsdf::Conductor { .. }
+            | Bsdf::ThinDielectric { .. }
+            | Bsdf::Dielectric { .. } => LobeClass::Specular,
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
                 if alpha.min_element() >= DIFFUSE_ALPHA {
                     LobeClass::Diffuse
@@ -308,6 +361,7 @@ mod tests {
                     alpha: rough,
                     eta: Rgb::WHITE,
                     k: Rgb::WHITE,
+                    distribution: Distribution::Ggx,
                 },
                 LobeClass::Glossy,
                 false,
@@ -316,6 +370,7 @@ mod tests {
                 Bsdf::RoughDielectric {
                     alpha: rough,
                     eta: 1.5,
+                    distribution: Distribution::Beckmann,
                 },
                 LobeClass::Glossy,
                 false,
@@ -325,6 +380,7 @@ mod tests {
                     alpha: Vec2::new(0.5, 0.7),
                     eta: Rgb::WHITE,
                     k: Rgb::WHITE,
+                    distribution: Distribution::Ggx,
                 },
                 LobeClass::Diffuse,
                 false,

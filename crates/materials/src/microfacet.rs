@@ -1,15 +1,17 @@
-//! The anisotropic Trowbridge–Reitz (GGX) microfacet distribution with Smith masking: normal
-//! distribution D, Λ, the masking term G1, height-correlated masking-shadowing G2, and sampling of the
-//! distribution of visible normals.
+//! Microfacet normal distributions with Smith masking: the anisotropic Trowbridge–Reitz (GGX) and
+//! Beckmann distributions, their normal distribution D, Λ, the masking term G1, height-correlated
+//! masking-shadowing G2, and the sampling of microfacet normals (visible normals for GGX, D(m) cos θm
+//! for Beckmann).
 //!
 //! Everything is in the local shading frame (normal on +z); αx scales slopes along +x (the frame's
 //! `s`, i.e. `dpdu`), αy along +y. Microfacet normals `m` live in the upper hemisphere.
 //!
-//! Numerics: α is clamped to at least [`ALPHA_MIN`]. D is written in the form of Heitz 2018, eq. 1,
-//! `1 / (π αx αy (x²/αx² + y²/αy² + z²)²)`, whose denominator is ≥ π αx αy · min(1, 1/α²)² for any
-//! unit `m`, so D stays finite (≤ 1/(π·10⁻⁸) ≈ 3.2·10⁷ at α = 10⁻⁴) with no tan θ to overflow. Λ is
-//! written without the cancellation of `(−1 + √(1 + a))/2`, and is +∞ (G1 = G2 = 0) exactly at the
-//! horizon.
+//! Numerics: α is clamped to at least [`ALPHA_MIN`]. GGX's D is written in the form of Heitz 2018,
+//! eq. 1, `1 / (π αx αy (x²/αx² + y²/αy² + z²)²)`, whose denominator is ≥ π αx αy · min(1, 1/α²)² for
+//! any unit `m`, so D stays finite (≤ 1/(π·10⁻⁸) ≈ 3.2·10⁷ at α = 10⁻⁴) with no tan θ to overflow;
+//! Beckmann's D is zero once its exponent passes 100 (e⁻¹⁰⁰ ≈ 4·10⁻⁴⁴). GGX's Λ is written without
+//! the cancellation of `(−1 + √(1 + a))/2`, Beckmann's with erfc; both are +∞ (G1 = G2 = 0) exactly
+//! at the horizon.
 
 use glam::{Vec2, Vec3};
 use lightlab_core::PI;
@@ -20,47 +22,88 @@ use lightlab_core::PI;
 /// truly smooth surfaces.
 pub const ALPHA_MIN: f32 = 1e-4;
 
-/// GGX with roughness (αx, αy), both ≥ [`ALPHA_MIN`].
+/// The distribution of microfacet normals of a rough surface.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Distribution {
+    /// Trowbridge–Reitz / GGX (Walter et al. 2007, eq. 33): long tails; sampled by visible normals
+    /// (Heitz 2018).
+    #[default]
+    Ggx,
+    /// Beckmann (Walter et al. 2007, eq. 25): Gaussian slopes; sampled by D(m) cos θm (its slopes
+    /// are normally distributed with variance α²/2 per axis).
+    Beckmann,
+}
+
+/// A microfacet distribution with roughness (αx, αy), both ≥ [`ALPHA_MIN`].
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Ggx {
+pub(crate) struct Microfacet {
+    kind: Distribution,
     ax: f32,
     ay: f32,
 }
 
-impl Ggx {
+impl Microfacet {
     /// Clamps α to [`ALPHA_MIN`] (a NaN component also becomes `ALPHA_MIN`).
     #[inline]
-    pub(crate) fn new(alpha: Vec2) -> Ggx {
-        Ggx {
+    pub(crate) fn new(kind: Distribution, alpha: Vec2) -> Microfacet {
+        Microfacet {
+            kind,
             ax: alpha.x.max(ALPHA_MIN),
             ay: alpha.y.max(ALPHA_MIN),
         }
     }
 
-    /// Normal distribution D(m) (Walter et al. 2007, eq. 33; anisotropic form of Heitz 2018, eq. 1).
-    /// Zero for `m` at or below the horizon.
+    /// Normal distribution D(m). Zero for `m` at or below the horizon.
+    ///
+    /// GGX: Walter et al. 2007, eq. 33, anisotropic form of Heitz 2018, eq. 1. Beckmann: Walter et
+    /// al. 2007, eq. 25, D = exp(−(x²/αx² + y²/αy²)/z²) / (π αx αy z⁴).
     #[inline]
     pub(crate) fn d(&self, m: Vec3) -> f32 {
         if m.z <= 0.0 {
             return 0.0;
         }
         let (sx, sy) = (m.x / self.ax, m.y / self.ay);
-        let e = sx * sx + sy * sy + m.z * m.z;
-        1.0 / (PI * self.ax * self.ay * e * e)
+        match self.kind {
+            Distribution::Ggx => {
+                let e = sx * sx + sy * sy + m.z * m.z;
+                1.0 / (PI * self.ax * self.ay * e * e)
+            }
+            Distribution::Beckmann => {
+                let z2 = m.z * m.z;
+                let e = (sx * sx + sy * sy) / z2;
+                if !(e < 100.0) {
+                    return 0.0;
+                }
+                (-e).exp() / (PI * self.ax * self.ay * z2 * z2)
+            }
+        }
     }
 
-    /// Smith's Λ(w) for GGX (Heitz 2014, "Understanding the Masking-Shadowing Function"; anisotropic
-    /// form as Heitz 2018, eq. 2): Λ = (−1 + √(1 + α²tan²θ)) / 2 with
-    /// α²tan²θ = (αx²x² + αy²y²) / z², evaluated as
-    /// a / (2(1 + √(1 + a))) to avoid cancellation. Depends only on |z|; +∞ at the horizon.
+    /// Smith's Λ(w) (Heitz 2014, "Understanding the Masking-Shadowing Function", §5.3; anisotropic
+    /// form as Heitz 2018, eq. 2), with α²tan²θ = (αx²x² + αy²y²) / z². Depends only on |z|; +∞
+    /// at the horizon.
+    ///
+    /// GGX: Λ = (−1 + √(1 + α²tan²θ)) / 2, evaluated as a / (2(1 + √(1 + a))) to avoid
+    /// cancellation. Beckmann: with a = 1/(α tan θ), Λ = (e^(−a²)/(a√π) − erfc(a)) / 2 (Heitz 2014,
+    /// eq. 72 with erf − 1 = −erfc), in f64.
     #[inline]
     pub(crate) fn lambda(&self, w: Vec3) -> f32 {
         let (x, y) = (self.ax * w.x, self.ay * w.y);
-        let a = (x * x + y * y) / (w.z * w.z);
-        if !a.is_finite() {
+        let a2 = (x * x + y * y) / (w.z * w.z);
+        if !a2.is_finite() {
             return f32::INFINITY;
         }
-        a / (2.0 * (1.0 + (1.0 + a).sqrt()))
+        match self.kind {
+            Distribution::Ggx => a2 / (2.0 * (1.0 + (1.0 + a2).sqrt())),
+            Distribution::Beckmann => {
+                if a2 == 0.0 {
+                    return 0.0;
+                }
+                let a = 1.0 / (a2 as f64).sqrt();
+                let l = ((-a * a).exp() / (a * std::f64::consts::PI.sqrt()) - libm::erfc(a)) / 2.0;
+                l.max(0.0) as f32
+            }
+        }
     }
 
     /// Smith masking G1(w) = 1 / (1 + Λ(w)) (Heitz 2014), for microfacets facing `w`.
@@ -80,20 +123,59 @@ impl Ggx {
     }
 
     /// Density of visible normals D_w(m) = G1(w) |w·m| D(m) / |w.z| (Heitz 2018, eq. 3, written for
-    /// both sides of the surface as pbrt-v4 §9.6.4 does): the solid-angle density
-    /// of the normal returned by [`Ggx::sample_visible`]. Callers discard microfacets that face away
+    /// both sides of the surface as pbrt-v4 §9.6.4 does). Callers discard microfacets that face away
     /// from `w`; for them this is not a density.
     #[inline]
     pub(crate) fn d_visible(&self, w: Vec3, m: Vec3) -> f32 {
         self.g1(w) / w.z.abs() * self.d(m) * w.dot(m).abs()
     }
 
-    /// Samples a microfacet normal from the distribution of normals visible from `w` (Heitz 2018,
-    /// "Sampling the GGX Distribution of Visible Normals", JCGT 7(4), Listing 1). A `w` below the
-    /// surface is replaced by −w first (pbrt-v4 `Sample_wm`), so the result, always in the upper
-    /// hemisphere, faces −w; its density is still [`Ggx::d_visible`].
+    /// Samples a microfacet normal for the direction `w` (upper hemisphere); its solid-angle density
+    /// is [`Microfacet::normal_pdf`]. GGX: a visible normal; Beckmann: D(m) cos θm, independent of
+    /// `w`.
     #[inline]
-    pub(crate) fn sample_visible(&self, w: Vec3, u: Vec2) -> Vec3 {
+    pub(crate) fn sample_normal(&self, w: Vec3, u: Vec2) -> Vec3 {
+        match self.kind {
+            Distribution::Ggx => self.sample_visible(w, u),
+            Distribution::Beckmann => {
+                // D(m) cos θm is the density of slopes (−m.x/m.z, −m.y/m.z) ~ N(0, diag(αx², αy²)/2)
+                // (Walter et al. 2007, eq. 25; Heitz 2014, §5.3): Box–Muller gives them exactly.
+                let r = (-(1.0 - u.x).ln()).sqrt();
+                let (s, c) = (2.0 * PI * u.y).sin_cos();
+                let (sx, sy) = (self.ax * r * c, self.ay * r * s);
+                let m = Vec3::new(-sx, -sy, 1.0).normalize();
+                if m.is_finite() { m } else { Vec3::Z }
+            }
+        }
+    }
+
+    /// Solid-angle density with which reflecting `wo` about a sampled normal gives `wi`, for the half
+    /// vector `h` of the pair and `cos_h` = wo·h > 0 (Walter et al. 2007, eq. 14): GGX's visible
+    /// normals give G1(wo) D(h) / (4 cos θo) (Heitz 2018, eq. 17, written without wo·h so that it is
+    /// the same bits however h was found), Beckmann's D(h) cos θh / (4 wo·h).
+    #[inline]
+    pub(crate) fn reflection_pdf(&self, wo: Vec3, h: Vec3, cos_h: f32) -> f32 {
+        match self.kind {
+            Distribution::Ggx => self.g1(wo) * self.d(h) / (4.0 * wo.z),
+            Distribution::Beckmann => self.d(h) * h.z / (4.0 * cos_h),
+        }
+    }
+
+    /// Solid-angle density of [`Microfacet::sample_normal`] at `m`, among the normals that face `w`.
+    #[inline]
+    pub(crate) fn normal_pdf(&self, w: Vec3, m: Vec3) -> f32 {
+        match self.kind {
+            Distribution::Ggx => self.d_visible(w, m),
+            Distribution::Beckmann => self.d(m) * m.z,
+        }
+    }
+
+    /// Samples a microfacet normal from the GGX distribution of normals visible from `w` (Heitz
+    /// 2018, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4), Listing 1). A `w` below
+    /// the surface is replaced by −w first (pbrt-v4 `Sample_wm`), so the result, always in the upper
+    /// hemisphere, faces −w; its density is still [`Microfacet::d_visible`].
+    #[inline]
+    fn sample_visible(&self, w: Vec3, u: Vec2) -> Vec3 {
         let w = if w.z < 0.0 { -w } else { w };
         // §3.2: stretch the view direction into the configuration where α = 1 (a hemisphere).
         let vh = Vec3::new(self.ax * w.x, self.ay * w.y, w.z).normalize();
@@ -150,11 +232,19 @@ mod tests {
         Vec2::new(0.1, 0.6),
     ];
 
+    const KINDS: [Distribution; 2] = [Distribution::Ggx, Distribution::Beckmann];
+
+    /// Every distribution at every test roughness.
+    fn all() -> impl Iterator<Item = (Vec2, Microfacet)> {
+        KINDS
+            .into_iter()
+            .flat_map(|k| ALPHAS.into_iter().map(move |a| (a, Microfacet::new(k, a))))
+    }
+
     /// ∫ D(m) cos θm dωm = 1: the microsurface projects onto unit macro area (Heitz 2014).
     #[test]
-    fn ggx_projected_area_is_one() {
-        for alpha in ALPHAS {
-            let ggx = Ggx::new(alpha);
+    fn projected_area_is_one() {
+        for (alpha, ggx) in all() {
             let area = integrate_hemisphere(1500, |m| ggx.d(m) as f64 * m.z as f64);
             assert!((area - 1.0).abs() < 2e-3, "alpha {alpha}: {area}");
         }
@@ -164,8 +254,7 @@ mod tests {
     /// projected-area constraint with Smith's G1). This pins Λ down, including its anisotropic form.
     #[test]
     fn visible_normal_density_is_normalised() {
-        for alpha in ALPHAS {
-            let ggx = Ggx::new(alpha);
+        for (alpha, ggx) in all() {
             for (theta, phi) in [(0.0f32, 0.0f32), (0.8, 0.3), (1.3, 2.0), (1.5, 4.0)] {
                 let v = Vec3::new(
                     theta.sin() * phi.cos(),
@@ -189,19 +278,25 @@ mod tests {
 
     #[test]
     fn masking_is_one_at_normal_incidence_and_zero_at_the_horizon() {
-        for alpha in ALPHAS {
-            let ggx = Ggx::new(alpha);
+        for (_, ggx) in all() {
             assert_eq!(ggx.g1(Vec3::Z), 1.0);
             assert_eq!(ggx.g1(Vec3::X), 0.0);
             assert_eq!(ggx.g2(Vec3::X, Vec3::Z), 0.0);
-            let g = ggx.g1(Vec3::new(0.6, 0.0, 0.8));
+            // Grazing enough (tan θ = 7) that even Beckmann at α = 0.1 masks a little.
+            let g = ggx.g1(Vec3::new(0.99, 0.0, 0.1414).normalize());
             assert!(g > 0.0 && g < 1.0);
         }
     }
 
     #[test]
     fn extreme_roughness_stays_finite() {
-        let ggx = Ggx::new(Vec2::ZERO);
+        for kind in KINDS {
+            extreme_roughness_stays_finite_for(kind);
+        }
+    }
+
+    fn extreme_roughness_stays_finite_for(kind: Distribution) {
+        let ggx = Microfacet::new(kind, Vec2::ZERO);
         assert!(ggx.d(Vec3::Z).is_finite());
         assert!(ggx.d(Vec3::new(1.0, 0.0, 1e-30).normalize()).is_finite());
         let w = Vec3::new(1.0, 0.0, 1e-20).normalize();
@@ -212,7 +307,7 @@ mod tests {
             Vec2::new(0.5, 0.999_999_9),
         ] {
             for w in [Vec3::Z, w, Vec3::new(0.0, -1.0, 1e-7).normalize()] {
-                let m = ggx.sample_visible(w, u);
+                let m = ggx.sample_normal(w, u);
                 assert!(m.is_finite() && m.z >= 0.0, "w {w} u {u}: {m}");
             }
         }

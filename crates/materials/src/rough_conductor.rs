@@ -1,5 +1,6 @@
-//! Rough metal: the Torrance–Sparrow microfacet BRDF with GGX, height-correlated Smith
-//! masking-shadowing and the conductor Fresnel term, sampled by visible normals (pbrt-v4 §9.6.5).
+//! Rough metal: the Torrance–Sparrow microfacet BRDF with GGX or Beckmann normals, height-correlated
+//! Smith masking-shadowing and the conductor Fresnel term, sampled by visible normals for GGX
+//! (pbrt-v4 §9.6.5) and by D(m) cos θm for Beckmann.
 //!
 //!   f(wo, wi) = D(h) G2(wo, wi) F(wo·h) / (4 |cos θo| |cos θi|),  h = normalize(wo + wi)
 //!
@@ -9,16 +10,17 @@
 //!   p(wi) = D_wo(m) / (4 |wo·m|) = G1(wo) D(m) / (4 |cos θo|)
 //!
 //! (Walter et al. 2007, eq. 14 for the reflection Jacobian; Heitz 2018, eq. 17), so the sample
-//! weight is F·G2/G1(wo) ≤ 1. Symmetric in wo and wi, hence the same in both transport modes.
+//! weight is F·G2/G1(wo) ≤ 1. For Beckmann, m ~ D(m) cos θm gives p(wi) = D(m) cos θm / (4 |wo·m|)
+//! (Walter et al. 2007, eqs. 14 and 24). Symmetric in wo and wi, hence the same in both transport modes.
 //! Two-sided: a `wo` below the surface is handled by mirroring both directions through the
 //! tangent plane, which leaves D, Λ and the anisotropy axes unchanged.
 
-use crate::microfacet::Ggx;
+use crate::microfacet::{Distribution, Microfacet};
 use crate::{BsdfEval, BsdfSample, LobeClass, fresnel};
 use lightlab_core::{Rgb, Vec2, Vec3};
 
 pub(crate) struct RoughConductor {
-    ggx: Ggx,
+    ggx: Microfacet,
     eta: Rgb,
     k: Rgb,
 }
@@ -31,9 +33,9 @@ fn flip_z(w: Vec3) -> Vec3 {
 
 impl RoughConductor {
     #[inline]
-    pub(crate) fn new(alpha: Vec2, eta: Rgb, k: Rgb) -> RoughConductor {
+    pub(crate) fn new(distribution: Distribution, alpha: Vec2, eta: Rgb, k: Rgb) -> RoughConductor {
         RoughConductor {
-            ggx: Ggx::new(alpha),
+            ggx: Microfacet::new(distribution, alpha),
             eta,
             k,
         }
@@ -69,17 +71,17 @@ impl RoughConductor {
         let fr = fresnel::conductor(cos_h, self.eta, self.k);
         BsdfEval {
             f: fr * (d * self.ggx.g2(wo, wi) / (4.0 * wo.z * wi.z)),
-            pdf_fwd: self.ggx.g1(wo) * d / (4.0 * wo.z),
-            pdf_rev: self.ggx.g1(wi) * d / (4.0 * wi.z),
+            pdf_fwd: self.ggx.reflection_pdf(wo, h, cos_h),
+            pdf_rev: self.ggx.reflection_pdf(wi, h, cos_h),
         }
     }
 
     #[inline]
     pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some((wo, _, h, _)) = Self::upper_half_vector(wo, wi) else {
+        let Some((wo, _, h, cos_h)) = Self::upper_half_vector(wo, wi) else {
             return 0.0;
         };
-        self.ggx.g1(wo) * self.ggx.d(h) / (4.0 * wo.z)
+        self.ggx.reflection_pdf(wo, h, cos_h)
     }
 
     /// The value and pdf come from [`RoughConductor::eval`] at the sampled `wi`, so they are exactly
@@ -87,7 +89,7 @@ impl RoughConductor {
     #[inline]
     pub(crate) fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         let wo_up = if wo.z < 0.0 { flip_z(wo) } else { wo };
-        let m = self.ggx.sample_visible(wo_up, u);
+        let m = self.ggx.sample_normal(wo_up, u);
         let wi_up = fresnel::reflect(wo_up, m);
         if wi_up.z <= 0.0 {
             return None;

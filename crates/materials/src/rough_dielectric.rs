@@ -1,5 +1,5 @@
 //! Rough glass: the microfacet BSDF of Walter et al. 2007 ("Microfacet Models for Refraction through
-//! Rough Surfaces") with GGX, following pbrt-v4's `DielectricBxDF` (§9.7).
+//! Rough Surfaces") with GGX or Beckmann normals, following pbrt-v4's `DielectricBxDF` (§9.7).
 //!
 //! With η_o and η_i the indices on the sides of `wo` and `wi` (outside = 1, inside = `eta`), the
 //! generalised half vector is m ∝ η_o·wo + η_i·wi, flipped to the upper hemisphere (Walter eq. 13
@@ -16,18 +16,19 @@
 //! (wo, wi) and (wi, wo): absolute indices in m and S, and F from a cosine both orders share (see
 //! `Configuration::fresnel`).
 //!
-//! Sampling: a visible normal m from D_wo (Heitz 2018), then reflection with probability F and
-//! refraction with probability 1 − F. The density is D_wo(m) times the Jacobian of the map m → wi,
+//! Sampling: a normal m — visible from wo, D_wo (Heitz 2018), for GGX; from D(m) cos θm for Beckmann
+//! (Walter eq. 24) — then reflection with probability F and
+//! refraction with probability 1 − F. The density is that of m times the Jacobian of the map m → wi,
 //! 1/(4|wo·m|) for reflection (Walter eq. 14) and η_i²|wi·m| / (η_i wi·m + η_o wo·m)² for refraction
 //! (Walter eq. 17), times the Fresnel selection probability. Microfacets that face away from either
 //! direction are discarded (pbrt-v4 §9.7), so these are the exact densities of `sample`.
 
-use crate::microfacet::Ggx;
+use crate::microfacet::{Distribution, Microfacet};
 use crate::{BsdfEval, BsdfSample, LobeClass, fresnel};
 use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
 
 pub(crate) struct RoughDielectric {
-    ggx: Ggx,
+    ggx: Microfacet,
     eta: f32,
 }
 
@@ -59,9 +60,9 @@ impl Configuration {
 
 impl RoughDielectric {
     #[inline]
-    pub(crate) fn new(alpha: Vec2, eta: f32) -> RoughDielectric {
+    pub(crate) fn new(distribution: Distribution, alpha: Vec2, eta: f32) -> RoughDielectric {
         RoughDielectric {
-            ggx: Ggx::new(alpha),
+            ggx: Microfacet::new(distribution, alpha),
             eta,
         }
     }
@@ -113,7 +114,7 @@ impl RoughDielectric {
     #[inline]
     fn pdf_in(&self, c: &Configuration, wo: Vec3, wi: Vec3) -> f32 {
         let fr = c.fresnel;
-        let d_wo = self.ggx.d_visible(wo, c.m);
+        let d_wo = self.ggx.normal_pdf(wo, c.m);
         if c.reflect {
             d_wo / (4.0 * wo.dot(c.m).abs()) * fr
         } else {
@@ -165,7 +166,12 @@ impl RoughDielectric {
         u: Vec2,
         mode: TransportMode,
     ) -> Option<BsdfSample> {
-        let m = self.ggx.sample_visible(wo, u);
+        let m = self.ggx.sample_normal(wo, u);
+        // A normal facing away from wo (possible for Beckmann's D cos θ sampling, which ignores wo)
+        // is discarded, as `configuration` does: lost mass, so the density stays exact.
+        if wo.dot(m) * wo.z <= 0.0 {
+            return None;
+        }
         let fr = fresnel::dielectric(wo.dot(m), self.eta);
         let (wi, transmitted_eta) = if u_lobe < fr {
             let wi = fresnel::reflect(wo, m);

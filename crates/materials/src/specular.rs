@@ -21,6 +21,30 @@ pub(crate) fn sample_conductor(eta: Rgb, k: Rgb, wo: Vec3) -> BsdfSample {
     BsdfSample::new(wi, f / wi.z.abs(), 1.0, LobeClass::Specular, None)
 }
 
+/// Thin dielectric sheet (a window pane), two-sided: the slab's two parallel interfaces reflect
+/// R′ = R + T²R/(1 − R²) + … = 2R/(1 + R) in total, R = F(|cos θo|) (the geometric series of
+/// inter-reflections inside the slab; Mitsuba 3's `thindielectric`), and transmit T′ = 1 − R′ along
+/// −wo (the two refractions cancel). Each lobe is chosen with its probability, so both weights are
+/// 1; the medium is the same on both sides, so there is no η′² factor.
+#[inline]
+pub(crate) fn sample_thin_dielectric(eta: f32, wo: Vec3, u_lobe: f32) -> BsdfSample {
+    let r = fresnel::dielectric(wo.z.abs(), eta);
+    let r = 2.0 * r / (1.0 + r);
+    if u_lobe < r {
+        let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+        BsdfSample::new(wi, Rgb::splat(r / wi.z.abs()), r, LobeClass::Specular, None)
+    } else {
+        let (wi, t) = (-wo, 1.0 - r);
+        BsdfSample::new(
+            wi,
+            Rgb::splat(t / wi.z.abs()),
+            t,
+            LobeClass::Specular,
+            Some(1.0),
+        )
+    }
+}
+
 /// Smooth dielectric (pbrt-v4 `DielectricBxDF`, specular case): reflection with probability
 /// R = F(cos θo) and coefficient R, refraction with probability T = 1 − R and coefficient T, scaled
 /// by 1/η′² in radiance mode (pbrt-v4 §9.5.2) where η′ is the relative index crossed. So the weight

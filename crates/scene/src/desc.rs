@@ -159,6 +159,12 @@ pub enum MaterialRaw {
     /// Smooth metal: specular reflection weighted by the conductor Fresnel reflectance for the
     /// complex index of refraction `eta` + i·`k` per channel (eta ≥ 0, k ≥ 0, not both 0).
     Conductor { eta: Rgb, k: Rgb },
+    /// A thin sheet of glass (a window pane): both faces' reflections summed, 2R/(1 + R), the rest
+    /// transmitted without bending. `ior` of the sheet relative to its surroundings, > 0; default 1.5.
+    ThinDielectric {
+        #[serde(default = "glass_ior")]
+        ior: f32,
+    },
     /// Smooth dielectric interface (glass): Fresnel-weighted reflection and refraction. `ior` is the
     /// index of refraction inside relative to outside (the side the geometric normal points to), > 0.
     /// Default 1.5.
@@ -166,23 +172,37 @@ pub enum MaterialRaw {
         #[serde(default = "glass_ior")]
         ior: f32,
     },
-    /// Rough metal: GGX microfacets (Walter et al. 2007) with complex index of refraction `eta` + i·`k`
-    /// per channel (eta ≥ 0, k ≥ 0, not both 0). Sampled by visible normals (Heitz 2018).
+    /// Rough metal: microfacets (Walter et al. 2007) with complex index of refraction `eta` + i·`k`
+    /// per channel (eta ≥ 0, k ≥ 0, not both 0). `distribution` `Ggx` (default; sampled by visible
+    /// normals, Heitz 2018) or `Beckmann`.
     RoughConductor {
         roughness: Roughness,
         eta: Rgb,
         k: Rgb,
+        #[serde(default)]
+        distribution: Microfacets,
     },
-    /// Rough glass: GGX microfacet reflection and transmission (Walter et al. 2007). `ior` as for
-    /// `Dielectric`, > 0; default 1.5.
+    /// Rough glass: microfacet reflection and transmission (Walter et al. 2007). `ior` as for
+    /// `Dielectric`, > 0; default 1.5. `distribution` as for `RoughConductor`.
     RoughDielectric {
         roughness: Roughness,
         #[serde(default = "glass_ior")]
         ior: f32,
+        #[serde(default)]
+        distribution: Microfacets,
     },
     /// Modified Phong (Lafortune and Willems 1994): diffuse `kd` plus a normalised cosⁿ lobe `ks` around
     /// the mirror direction, `exponent` n ≥ 0. Energy conservation requires kd + ks ≤ 1 per channel.
     Phong { kd: Rgb, ks: Rgb, exponent: f32 },
+}
+
+/// The distribution of microfacet normals: `Ggx` (Trowbridge–Reitz, long tails) or `Beckmann`
+/// (Gaussian slopes). Default `Ggx`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+pub enum Microfacets {
+    #[default]
+    Ggx,
+    Beckmann,
 }
 
 /// GGX roughness α (the slope-space standard deviation scale; α = 0 is clamped to the smallest value
@@ -207,12 +227,15 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
             MaterialRaw::Diffuse { albedo } => unit_rgb("Diffuse albedo", albedo)?,
             MaterialRaw::Mirror { reflectance } => unit_rgb("Mirror reflectance", reflectance)?,
             MaterialRaw::Dielectric { ior } => positive("Dielectric ior", ior)?,
+            MaterialRaw::ThinDielectric { ior } => positive("ThinDielectric ior", ior)?,
             MaterialRaw::Conductor { eta, k } => check_complex_ior("Conductor", eta, k)?,
-            MaterialRaw::RoughConductor { roughness, eta, k } => {
+            MaterialRaw::RoughConductor {
+                roughness, eta, k, ..
+            } => {
                 check_roughness(roughness)?;
                 check_complex_ior("RoughConductor", eta, k)?;
             }
-            MaterialRaw::RoughDielectric { roughness, ior } => {
+            MaterialRaw::RoughDielectric { roughness, ior, .. } => {
                 check_roughness(roughness)?;
                 positive("RoughDielectric ior", ior)?;
                 if ior == 1.0 {

@@ -9,13 +9,13 @@
 //! the same reason). `Scene::origin` records where that centre is in the file's coordinates.
 
 use crate::desc::{
-    GeometryDesc, GeometryRaw, LightDesc, LightRaw, MaterialDesc, MaterialRaw, Roughness,
-    SceneDesc, TransformDesc,
+    GeometryDesc, GeometryRaw, LightDesc, LightRaw, MaterialDesc, MaterialRaw, Microfacets,
+    Roughness, SceneDesc, TransformDesc,
 };
 use crate::{Camera, Light, Scene, SceneError};
 use glam::{DMat3, DQuat, DVec3, Mat3, Vec2, Vec3};
 use lightlab_geometry::{Accel, Geometry, NO_LIGHT, Shape, Sphere, TriangleMesh};
-use lightlab_materials::{Bsdf, Material};
+use lightlab_materials::{Bsdf, Distribution, Material};
 use std::path::Path;
 
 /// Loads and builds the scene in `path`: RON, or a Mitsuba 3 XML file (`.xml`, imported with its
@@ -274,16 +274,35 @@ fn bsdf(m: &MaterialDesc) -> Bsdf {
         MaterialRaw::Mirror { reflectance } => Bsdf::Mirror { reflectance },
         MaterialRaw::Conductor { eta, k } => Bsdf::Conductor { eta, k },
         MaterialRaw::Dielectric { ior } => Bsdf::Dielectric { eta: ior },
-        MaterialRaw::RoughConductor { roughness, eta, k } => Bsdf::RoughConductor {
+        MaterialRaw::ThinDielectric { ior } => Bsdf::ThinDielectric { eta: ior },
+        MaterialRaw::RoughConductor {
+            roughness,
+            eta,
+            k,
+            distribution,
+        } => Bsdf::RoughConductor {
             alpha: alpha(roughness),
             eta,
             k,
+            distribution: microfacets(distribution),
         },
-        MaterialRaw::RoughDielectric { roughness, ior } => Bsdf::RoughDielectric {
+        MaterialRaw::RoughDielectric {
+            roughness,
+            ior,
+            distribution,
+        } => Bsdf::RoughDielectric {
             alpha: alpha(roughness),
             eta: ior,
+            distribution: microfacets(distribution),
         },
         MaterialRaw::Phong { kd, ks, exponent } => Bsdf::Phong { kd, ks, exponent },
+    }
+}
+
+fn microfacets(d: Microfacets) -> Distribution {
+    match d {
+        Microfacets::Ggx => Distribution::Ggx,
+        Microfacets::Beckmann => Distribution::Beckmann,
     }
 }
 

@@ -5,7 +5,7 @@
 use glam::DVec3;
 use lightlab_core::Rgb;
 use lightlab_scene::SceneError;
-use lightlab_scene::desc::{GeometryRaw, LightRaw, MaterialRaw, Roughness};
+use lightlab_scene::desc::{GeometryRaw, LightRaw, MaterialRaw, Microfacets, Roughness};
 use lightlab_scene::mitsuba::{Imported, import};
 use std::path::PathBuf;
 
@@ -136,11 +136,6 @@ fn unsupported_plugins_are_errors_naming_what_is_supported() {
             "texture",
             "<texture type=\"bitmap\" id=\"t\"/>",
             "<texture> is not imported",
-        ),
-        (
-            "beckmann",
-            "<bsdf type=\"roughconductor\"/>",
-            "Beckmann distribution",
         ),
         (
             "tex-param",
@@ -492,7 +487,9 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
             <bsdf type="roughconductor" id="rough"><string name="distribution" value="ggx"/>
                 <float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.1"/></bsdf>
             <bsdf type="dielectric" id="water"><string name="int_ior" value="water"/></bsdf>
+            <bsdf type="thindielectric" id="pane"><string name="int_ior" value="water"/><string name="ext_ior" value="vacuum"/></bsdf>
             <bsdf type="dielectric" id="inside"><float name="int_ior" value="1"/><float name="ext_ior" value="1.5"/></bsdf>
+            <bsdf type="roughconductor" id="default-rough"/>
             <bsdf type="roughdielectric" id="frosted"><string name="distribution" value="ggx"/>
                 <float name="alpha" value="0.2"/></bsdf>"#
         ),
@@ -550,15 +547,35 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
     };
     assert!((ior - 1.333 / 1.000277).abs() < 1e-5, "{ior}");
     assert_eq!(
+        material(&i, "pane"),
+        (MaterialRaw::ThinDielectric { ior: 1.333 }, false)
+    );
+    assert_eq!(
         material(&i, "inside").0,
         MaterialRaw::Dielectric { ior: 1.0 / 1.5 }
     );
     // Mitsuba's defaults: int_ior bk7 (1.5046), ext_ior air (1.000277).
-    let MaterialRaw::RoughDielectric { roughness, ior } = material(&i, "frosted").0 else {
+    let MaterialRaw::RoughDielectric {
+        roughness,
+        ior,
+        distribution,
+    } = material(&i, "frosted").0
+    else {
         panic!()
     };
     assert_eq!(roughness, Roughness::Isotropic(0.2));
+    assert_eq!(distribution, Microfacets::Ggx);
     assert!((ior - 1.5046 / 1.000277).abs() < 1e-5, "{ior}");
+    // Mitsuba's rough defaults: Beckmann, α = 0.1, and the material "none" (η = 0, k = 1).
+    assert_eq!(
+        material(&i, "default-rough").0,
+        MaterialRaw::RoughConductor {
+            roughness: Roughness::Isotropic(0.1),
+            eta: Rgb::BLACK,
+            k: Rgb::WHITE,
+            distribution: Microfacets::Beckmann
+        }
+    );
     let (_, _, m) = err(
         "bad-albedo",
         &format!("{SENSOR}<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"1.5\"/></bsdf>"),

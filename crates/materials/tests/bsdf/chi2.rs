@@ -10,7 +10,7 @@
 //!
 //! - **Sphere** ([`Domain::Sphere`], 41 × 80 equal-area cells over all directions) for lobes wider
 //!   than a cell: Diffuse, Phong with exponents 1 and 20, GGX with α from 0.05 to 1 and anisotropic
-//!   α = (0.1, 0.6). The horizon lies in the middle of a row, on an edge of the integration
+//!   α = (0.1, 0.6), Beckmann with α = 0.3 and (0.1, 0.6). The horizon lies in the middle of a row, on an edge of the integration
 //!   sub-grid, so the jump from reflection to transmission is integrated exactly.
 //! - **Window** ([`DirectionWindow`] on [`Domain::Square`]) for near-specular lobes (GGX with
 //!   α = 10⁻³, the `ALPHA_MIN` clamp and anisotropic (10⁻³, 2·10⁻²), Phong with exponent 1000):
@@ -27,14 +27,14 @@
 //! near-specular transmission lobe: 45° is beyond the critical angle).
 //!
 //! False failures: every chi-square run uses the default α = sidak(0.01, 250) = 4.02 × 10⁻⁵.
-//! This file makes 107 runs (counted per test function below), so a correct implementation fails
-//! some run with probability 1 − (1 − α)¹⁰⁷ ≈ 0.429 % over the choice of seeds; the seeds are fixed,
+//! This file makes 137 runs (counted per test function below), so a correct implementation fails
+//! some run with probability 1 − (1 − α)¹³⁷ ≈ 0.549 % over the choice of seeds; the seeds are fixed,
 //! so a passing suite keeps passing until the sampling code changes.
 
 use crate::common::*;
 use glam::{DVec2, DVec3};
 use lightlab_core::{TransportMode, Vec2, Vec3};
-use lightlab_materials::{ALPHA_MIN, Bsdf};
+use lightlab_materials::{ALPHA_MIN, Bsdf, Distribution};
 use lightlab_testkit::{Chi2Test, DirectionWindow, Domain};
 
 /// Windows span this many lobe widths on each side of the centre.
@@ -312,12 +312,66 @@ fn chi2_rough_conductor_rough_and_anisotropic() {
     );
 }
 
+// ---- Beckmann ------------------------------------------------------------------------------
+
+/// 30 runs: Beckmann normals (sampled by D(m) cos θm) on gold at α = 0.05 (reflection window),
+/// 0.3 and (0.1, 0.6), and on glass at 0.3 and (0.1, 0.6), both sides.
+#[test]
+fn chi2_beckmann() {
+    let gold = |alpha| Bsdf::RoughConductor {
+        alpha,
+        eta: GOLD_ETA,
+        k: GOLD_K,
+        distribution: Distribution::Beckmann,
+    };
+    let glass = |alpha| Bsdf::RoughDielectric {
+        alpha,
+        eta: 1.5,
+        distribution: Distribution::Beckmann,
+    };
+    let alpha = Vec2::splat(0.05);
+    for (k, wo) in wos_both_sides().into_iter().enumerate() {
+        let window = reflection_window(wo, alpha);
+        chi2_window(
+            &format!("beckmann_conductor_a0.05_wo{k}"),
+            gold(alpha),
+            wo,
+            &window,
+            4800 + k as u64,
+        );
+    }
+    let mut runs = 0;
+    for (i, alpha) in [Vec2::splat(0.3), Vec2::new(0.1, 0.6)]
+        .into_iter()
+        .enumerate()
+    {
+        let seed = 4810 + 20 * i as u64;
+        runs += sphere_cases(
+            &format!("beckmann_conductor_a{alpha}"),
+            gold(alpha),
+            &wos_both_sides(),
+            seed,
+        );
+        runs += sphere_cases(
+            &format!("beckmann_dielectric_a{alpha}"),
+            glass(alpha),
+            &wos_both_sides(),
+            seed + 10,
+        );
+    }
+    assert_eq!(runs, 24);
+}
+
 // ---- RoughDielectric ----------------------------------------------------------------------
 
 /// Near-specular glass: a window on the reflection lobe and, unless totally internally
 /// reflected, one on the transmission lobe. Returns the number of runs.
 fn rough_dielectric_windows(label: &str, alpha: Vec2, eta: f32, wos: &[Vec3], seed: u64) -> usize {
-    let bsdf = Bsdf::RoughDielectric { alpha, eta };
+    let bsdf = Bsdf::RoughDielectric {
+        alpha,
+        eta,
+        distribution: Distribution::Ggx,
+    };
     let clamped = alpha.max(Vec2::splat(ALPHA_MIN));
     let mut runs = 0;
     for (k, &wo) in wos.iter().enumerate() {
@@ -386,6 +440,7 @@ fn chi2_rough_dielectric_glossy() {
         Bsdf::RoughDielectric {
             alpha: Vec2::splat(0.3),
             eta: 1.0 / 1.5,
+            distribution: Distribution::Ggx,
         },
         &wos_both_sides(),
         4620,
@@ -400,6 +455,7 @@ fn chi2_rough_dielectric_alpha_0_3() {
         Bsdf::RoughDielectric {
             alpha: Vec2::splat(0.3),
             eta: 1.5,
+            distribution: Distribution::Ggx,
         },
         &wos_both_sides(),
         4700,
@@ -414,6 +470,7 @@ fn chi2_rough_dielectric_alpha_1() {
         Bsdf::RoughDielectric {
             alpha: Vec2::splat(1.0),
             eta: 1.5,
+            distribution: Distribution::Ggx,
         },
         &wos_both_sides(),
         4710,
@@ -428,6 +485,7 @@ fn chi2_rough_dielectric_anisotropic() {
         Bsdf::RoughDielectric {
             alpha: Vec2::new(0.1, 0.6),
             eta: 1.5,
+            distribution: Distribution::Ggx,
         },
         &wos_both_sides(),
         4720,

@@ -1,7 +1,7 @@
 //! Shared test fixtures: parameter sets for every variant, awkward directions, random helpers.
 
 use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
-use lightlab_materials::Bsdf;
+use lightlab_materials::{Bsdf, Distribution};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 
@@ -37,11 +37,15 @@ pub fn mirror() -> Bsdf {
     }
 }
 
+/// Both microfacet distributions.
+pub const DISTRIBUTIONS: [Distribution; 2] = [Distribution::Ggx, Distribution::Beckmann];
+
 pub fn rough_conductor(alpha: Vec2) -> Bsdf {
     Bsdf::RoughConductor {
         alpha,
         eta: GOLD_ETA,
         k: GOLD_K,
+        distribution: Distribution::Ggx,
     }
 }
 
@@ -53,16 +57,33 @@ pub fn phong(exponent: f32) -> Bsdf {
     }
 }
 
+/// Gold at every test roughness, with GGX and with Beckmann normals.
 pub fn rough_conductors() -> Vec<Bsdf> {
-    ALPHAS.iter().map(|&a| rough_conductor(a)).collect()
+    DISTRIBUTIONS
+        .iter()
+        .flat_map(|&distribution| {
+            ALPHAS.iter().map(move |&alpha| Bsdf::RoughConductor {
+                alpha,
+                eta: GOLD_ETA,
+                k: GOLD_K,
+                distribution,
+            })
+        })
+        .collect()
 }
 
+/// Glass at every test roughness and both relative indices, with GGX and with Beckmann normals.
 pub fn rough_dielectrics() -> Vec<Bsdf> {
-    ALPHAS
+    DISTRIBUTIONS
         .iter()
-        .flat_map(|&alpha| {
-            ETAS.iter()
-                .map(move |&eta| Bsdf::RoughDielectric { alpha, eta })
+        .flat_map(|&distribution| {
+            ALPHAS.iter().flat_map(move |&alpha| {
+                ETAS.iter().map(move |&eta| Bsdf::RoughDielectric {
+                    alpha,
+                    eta,
+                    distribution,
+                })
+            })
         })
         .collect()
 }

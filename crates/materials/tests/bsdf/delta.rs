@@ -290,3 +290,41 @@ fn conductor_reflects_exactly_with_weight_equal_to_its_fresnel_reflectance() {
         );
     }
 }
+
+/// A thin sheet reflects R′ = 2R/(1 + R) with R the f64 Fresnel reflectance (the sum R + T²R +
+/// T²R³ + … of the slab's inter-reflections) and transmits the rest along −wo, with weight 1 for
+/// both lobes in both modes and no change of medium.
+#[test]
+fn thin_dielectric_sums_its_inter_reflections_and_transmits_straight_through() {
+    for eta in [1.5f32, 1.0 / 1.5, 1.33] {
+        let bsdf = Bsdf::ThinDielectric { eta };
+        for wo in incident_directions() {
+            let up = DVec3::new(wo.x as f64, wo.y as f64, wo.z.abs() as f64);
+            let r = fresnel_f64(up, eta as f64);
+            // Near the critical angle R changes faster than f32 resolves cos θ: skip those.
+            let nudged = fresnel_f64(DVec3::new(up.x, up.y, up.z * (1.0 + 1e-5)), eta as f64);
+            if (r - nudged).abs() > 1e-5 {
+                continue;
+            }
+            let r_slab = 2.0 * r / (1.0 + r);
+            for mode in MODES {
+                for (u_lobe, reflect) in [(r_slab * 0.999, true), (r_slab * 1.001 + 1e-6, false)] {
+                    if u_lobe >= 1.0 {
+                        continue;
+                    }
+                    let s = bsdf
+                        .sample(wo, u_lobe as f32, Vec2::new(0.3, 0.7), mode)
+                        .unwrap_or_else(|| panic!("eta {eta}, wo {wo}: no sample"));
+                    let ctx = || format!("thin eta {eta}, wo {wo}, {mode:?}, u {u_lobe}: {s:?}");
+                    assert_eq!(s.transmission, !reflect, "{}", ctx());
+                    let want_wi = if reflect { mirror_direction(wo) } else { -wo };
+                    assert_eq!(s.wi, want_wi, "{}", ctx());
+                    let p = if reflect { r_slab } else { 1.0 - r_slab };
+                    assert!((s.pdf as f64 - p).abs() < 2e-6, "{}: pdf vs {p}", ctx());
+                    assert_rgb_rel(s.weight, Rgb::WHITE, 1e-5, &|| ctx());
+                    assert!(s.delta && s.eta == 1.0 && s.lobe == LobeClass::Specular);
+                }
+            }
+        }
+    }
+}

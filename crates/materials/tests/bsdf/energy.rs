@@ -10,7 +10,7 @@
 
 use crate::common::*;
 use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
-use lightlab_materials::Bsdf;
+use lightlab_materials::{Bsdf, Distribution};
 use rand::RngExt;
 
 fn albedo(bsdf: Bsdf, wo: Vec3, mode: TransportMode, n: usize, seed: u64) -> MeanEstimate {
@@ -199,6 +199,7 @@ fn rough_dielectric_with_small_alpha_matches_smooth_dielectric() {
         let rough = Bsdf::RoughDielectric {
             alpha: Vec2::splat(1e-3),
             eta,
+            distribution: Distribution::Ggx,
         };
         let smooth = Bsdf::Dielectric { eta };
         for wo in [dir(0.6, 0.2), dir(0.3, 4.0), -dir(0.6, 0.2), -dir(0.3, 4.0)] {

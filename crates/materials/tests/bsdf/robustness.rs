@@ -27,12 +27,19 @@ fn extreme_bsdfs() -> Vec<Bsdf> {
     v.extend(etas.iter().map(|&eta| Bsdf::Dielectric { eta }));
     for alpha in alphas {
         v.push(rough_conductor(alpha));
-        v.push(Bsdf::RoughConductor {
-            alpha,
-            eta: Rgb::new(0.01, 1.0, 20.0),
-            k: Rgb::new(20.0, 0.0, 0.01),
-        });
-        v.extend(etas.iter().map(|&eta| Bsdf::RoughDielectric { alpha, eta }));
+        for distribution in DISTRIBUTIONS {
+            v.push(Bsdf::RoughConductor {
+                alpha,
+                eta: Rgb::new(0.01, 1.0, 20.0),
+                k: Rgb::new(20.0, 0.0, 0.01),
+                distribution,
+            });
+            v.extend(etas.iter().map(|&eta| Bsdf::RoughDielectric {
+                alpha,
+                eta,
+                distribution,
+            }));
+        }
     }
     for exponent in [0.0, 1.0, 1e4] {
         v.push(phong(exponent));

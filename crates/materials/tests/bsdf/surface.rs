@@ -3,7 +3,7 @@
 
 use crate::common::*;
 use lightlab_core::{Frame, TransportMode, Vec2, Vec3};
-use lightlab_materials::{Bsdf, Material, SurfaceBsdf};
+use lightlab_materials::{Bsdf, Distribution, Material, SurfaceBsdf};
 use rand::RngExt;
 
 /// A random unit vector and a random tangent-ish vector.
@@ -24,6 +24,13 @@ fn test_bsdfs() -> Vec<Bsdf> {
         Bsdf::RoughDielectric {
             alpha: Vec2::new(0.3, 0.1),
             eta: 1.5,
+            distribution: Distribution::Ggx,
+        },
+        Bsdf::RoughConductor {
+            alpha: Vec2::new(0.3, 0.1),
+            eta: GOLD_ETA,
+            k: GOLD_K,
+            distribution: Distribution::Beckmann,
         },
         phong(20.0),
     ]

@@ -6,7 +6,7 @@ use super::object::Object;
 use super::presets::{CONDUCTORS, DIELECTRICS};
 use super::xml::Element;
 use crate::SceneError;
-use crate::desc::{MaterialDesc, MaterialRaw, Roughness};
+use crate::desc::{MaterialDesc, MaterialRaw, Microfacets, Roughness};
 use lightlab_core::Rgb;
 
 /// The material of a `<bsdf>` element (resolving a nested `twosided`).
@@ -52,7 +52,7 @@ pub(crate) fn material(el: &Element, refs: &Refs) -> Result<MaterialDesc, SceneE
             (raw, true)
         }
         "roughconductor" => {
-            let roughness = roughness(&o)?;
+            let (roughness, distribution) = roughness(&o)?;
             let (eta, k) = complex_ior(&o)?;
             unit_scale(&o)?;
             (
@@ -60,6 +60,7 @@ pub(crate) fn material(el: &Element, refs: &Refs) -> Result<MaterialDesc, SceneE
                     roughness,
                     eta: eta.unwrap_or(Rgb::BLACK),
                     k,
+                    distribution,
                 },
                 true,
             )
@@ -69,16 +70,28 @@ pub(crate) fn material(el: &Element, refs: &Refs) -> Result<MaterialDesc, SceneE
             unit_scales(&o)?;
             (MaterialRaw::Dielectric { ior }, false)
         }
-        "roughdielectric" => {
-            let roughness = roughness(&o)?;
+        "thindielectric" => {
             let ior = relative_ior(&o)?;
             unit_scales(&o)?;
-            (MaterialRaw::RoughDielectric { roughness, ior }, false)
+            (MaterialRaw::ThinDielectric { ior }, false)
+        }
+        "roughdielectric" => {
+            let (roughness, distribution) = roughness(&o)?;
+            let ior = relative_ior(&o)?;
+            unit_scales(&o)?;
+            (
+                MaterialRaw::RoughDielectric {
+                    roughness,
+                    ior,
+                    distribution,
+                },
+                false,
+            )
         }
         other => {
             return Err(o.error(format!(
                 "BSDF type '{other}' is not imported (supported: diffuse, conductor, \
-                 roughconductor, dielectric, roughdielectric, twosided)"
+                 roughconductor, dielectric, thindielectric, roughdielectric, twosided)"
             )));
         }
     };
@@ -120,20 +133,19 @@ fn complex_ior(o: &Object) -> Result<(Option<Rgb>, Rgb), SceneError> {
     }
 }
 
-/// GGX roughness from `alpha` or `alpha_u`/`alpha_v` (default 0.1, Mitsuba's).
-fn roughness(o: &Object) -> Result<Roughness, SceneError> {
-    match o.string("distribution")?.unwrap_or("beckmann") {
-        "ggx" => {}
-        "beckmann" => {
+/// The microfacet distribution (`beckmann`, Mitsuba's default, or `ggx`) and its roughness from
+/// `alpha` or `alpha_u`/`alpha_v` (default 0.1, Mitsuba's).
+fn roughness(o: &Object) -> Result<(Roughness, Microfacets), SceneError> {
+    let distribution = match o.string("distribution")?.unwrap_or("beckmann") {
+        "ggx" => Microfacets::Ggx,
+        "beckmann" => Microfacets::Beckmann,
+        d => {
             return Err(o.error(format!(
-                "{} uses the Beckmann distribution (Mitsuba's default): Lightlab's microfacet \
-                 BSDFs are GGX; set <string name=\"distribution\" value=\"ggx\"/>",
-                o.describe()
+                "unknown microfacet distribution '{d}' (beckmann or ggx)"
             )));
         }
-        d => return Err(o.error(format!("unknown microfacet distribution '{d}'"))),
-    }
-    // Lightlab always samples visible normals; the flag changes only Mitsuba's sampling.
+    };
+    // The flag changes only how Mitsuba samples normals, not the BSDF.
     o.boolean("sample_visible", true)?;
     let alpha = o.float("alpha")?;
     let (u, v) = (o.float("alpha_u")?, o.float("alpha_v")?);
@@ -155,7 +167,7 @@ fn roughness(o: &Object) -> Result<Roughness, SceneError> {
         }
         (None, _, _) => return Err(o.error("alpha_u and alpha_v must be given together")),
     };
-    Ok(r)
+    Ok((r, distribution))
 }
 
 /// `int_ior / ext_ior`, each a number or one of Mitsuba's named media (defaults bk7 and air).
