@@ -268,15 +268,21 @@ pub fn check_plane_under_sky(configs: &[&str]) {
     ));
     for config in configs {
         let (mean, se) = image_mean(&render(&sc, config, 256, 5).film);
-        for c in 0..3 {
-            let z = z(mean[c], se[c], want[c], 0.0);
-            assert!(
-                z.abs() < crit,
-                "{config}: channel {c}: {} ± {} vs {}, z = {z:.2}",
-                mean[c],
-                se[c],
-                want[c]
-            );
-        }
+        assert_mean_near(config, mean, se, want, crit);
+    }
+}
+
+/// Asserts that every channel of an image mean ± its standard error is within `crit` standard
+/// errors of the exact `want`.
+pub fn assert_mean_near(config: &str, mean: [f64; 3], se: [f64; 3], want: [f64; 3], crit: f64) {
+    for c in 0..3 {
+        let z = z(mean[c], se[c], want[c], 0.0);
+        assert!(
+            z.abs() < crit,
+            "{config}: channel {c}: {} ± {} vs {}, z = {z:.2}",
+            mean[c],
+            se[c],
+            want[c]
+        );
     }
 }

@@ -5,7 +5,7 @@ use crate::render::Counters;
 use crate::walk::{Arrival, PathVertex};
 use glam::Vec2;
 use glam::Vec3;
-use lightlab_core::{INV_4PI, Rgb, TransportMode};
+use lightlab_core::{Rgb, TransportMode};
 use lightlab_geometry::{NO_LIGHT, spawn_ray, spawn_ray_to, spawn_ray_to_point};
 use lightlab_materials::SurfaceBsdf;
 use lightlab_samplers::mis::power_heuristic;
@@ -110,19 +110,21 @@ pub(crate) fn emission_found(
     v.beta * le * competition.weight(arrival, || light_pdf_of_hit(scene, arrival.from, v))
 }
 
-/// The same for a walk that escaped with throughput `beta` to the (constant) environment.
+/// The same for a walk that escaped with throughput `beta` along the unit direction `d` to the
+/// environment.
 #[inline]
 pub(crate) fn environment_found(
     scene: &Scene,
     beta: Rgb,
+    d: Vec3,
     arrival: &Arrival,
     competition: Competition,
 ) -> Rgb {
-    let le = scene.environment_le();
+    let le = scene.environment_le(d);
     if le.is_black() {
         return le;
     }
-    beta * le * competition.weight(arrival, || environment_light_pdf(scene))
+    beta * le * competition.weight(arrival, || environment_light_pdf(scene, d))
 }
 
 /// Solid-angle density, light choice included, with which next-event estimation from `from`
@@ -133,12 +135,12 @@ fn light_pdf_of_hit(scene: &Scene, from: Vec3, v: &PathVertex) -> f32 {
     scene.light_pmf(v.emitter) * scene.shapes()[v.shape as usize].pdf_solid_angle(from, v.p, v.ng)
 }
 
-/// The same for a ray that escapes to the (constant) environment light.
+/// The same for a ray that escapes along `d` to the environment light.
 #[inline]
-fn environment_light_pdf(scene: &Scene) -> f32 {
-    scene
-        .environment_light()
-        .map_or(0.0, |i| scene.light_pmf(i) * INV_4PI)
+fn environment_light_pdf(scene: &Scene, d: Vec3) -> f32 {
+    scene.environment_light().map_or(0.0, |i| {
+        scene.light_pmf(i) * scene.lights[i as usize].pdf_li(&[], Vec3::ZERO, d, -d)
+    })
 }
 
 /// Whether the segment from `v` to the light sample is blocked.

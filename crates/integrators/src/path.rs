@@ -190,9 +190,10 @@ impl Visitor for CameraPath<'_, '_, '_> {
     }
 
     #[inline]
-    fn escaped(&mut self, _ray: &Ray, beta: Rgb, arrival: &Arrival, counters: &mut Counters) {
+    fn escaped(&mut self, ray: &Ray, beta: Rgb, arrival: &Arrival, counters: &mut Counters) {
         if arrival.class.len() >= self.tracer.config.min_bounces {
-            let c = environment_found(self.scene, beta, arrival, self.tracer.competition());
+            let d = ray.d.normalize();
+            let c = environment_found(self.scene, beta, d, arrival, self.tracer.competition());
             if !c.is_black() {
                 self.sink
                     .add_eye_or_count(&arrival.class, c, Technique::Emission, counters);

@@ -614,11 +614,11 @@ impl TryFrom<TransformRaw> for TransformDesc {
 }
 
 /// Lights that are not surfaces.
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, try_from = "LightRaw")]
 pub struct LightDesc(pub LightRaw);
 
-#[derive(Clone, Copy, Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, rename = "Light")]
 pub enum LightRaw {
     /// Isotropic point light with radiant `intensity` (W·sr⁻¹, ≥ 0).
@@ -636,6 +636,22 @@ pub enum LightRaw {
     },
     /// Constant radiance arriving from every direction at infinity (≥ 0).
     Environment { radiance: Rgb },
+    /// Radiance from infinity read from a latitude–longitude OpenEXR image `file` (relative to the
+    /// scene file), Mitsuba 3's `envmap` parameterisation (+y is the top row; see
+    /// scenes/README.md), times `scale` (≥ 0, default 1), turned by `rotate` (as in `Transform`).
+    /// Importance-sampled by its brightness. At most one per scene; constant `Environment`s add
+    /// to it.
+    EnvironmentMap {
+        file: String,
+        #[serde(default = "unit_scale")]
+        scale: f32,
+        #[serde(default)]
+        rotate: Vec<RotationDesc>,
+    },
+}
+
+fn unit_scale() -> f32 {
+    1.0
 }
 
 impl TryFrom<LightRaw> for LightDesc {
@@ -676,6 +692,24 @@ impl TryFrom<LightRaw> for LightDesc {
             }
             LightRaw::Environment { radiance } => {
                 non_negative_rgb("Environment radiance", radiance)?
+            }
+            LightRaw::EnvironmentMap {
+                ref file,
+                scale,
+                ref rotate,
+            } => {
+                if file.is_empty() {
+                    return Err("EnvironmentMap file name is empty".into());
+                }
+                if !(scale >= 0.0 && scale.is_finite()) {
+                    return Err(format!("EnvironmentMap scale must be ≥ 0, got {scale}"));
+                }
+                for r in rotate {
+                    finite_vec("rotation axis", r.axis)?;
+                    if r.axis.length_squared() == 0.0 || !r.degrees.is_finite() {
+                        return Err("rotation needs a non-zero axis and finite degrees".into());
+                    }
+                }
             }
         }
         Ok(LightDesc(l))

@@ -8,7 +8,9 @@
 
 mod camera;
 pub mod desc;
+mod envmap;
 mod error;
+mod image;
 mod light;
 mod load;
 pub mod mitsuba;
@@ -16,6 +18,7 @@ pub mod overrides;
 mod scene;
 
 pub use camera::{Camera, CameraSample};
+pub use envmap::EnvMap;
 pub use error::SceneError;
 pub use light::{Light, LightEmission, LightSample, spot_falloff};
 pub use load::{build_scene, load_scene, parse_scene};

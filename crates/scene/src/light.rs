@@ -1,8 +1,10 @@
 //! Lights and their sampling. Area lights are shapes with emission; point, spot and environment lights
 //! are delta or infinite emitters. Light selection is proportional to emitted power (see `Scene`).
 
+use crate::EnvMap;
 use glam::{Vec2, Vec3};
 use lightlab_core::{Frame, INV_4PI, INV_PI, PI, Rgb};
+use std::sync::Arc;
 
 /// The largest f32 below 1.
 const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
@@ -12,7 +14,7 @@ use lightlab_samplers::warp::{
     square_to_uniform_cone_pdf, square_to_uniform_sphere, square_to_uniform_sphere_pdf,
 };
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub enum Light {
     /// Lambertian emitter on shape `shape` with constant `radiance`.
     Area {
@@ -32,8 +34,11 @@ pub enum Light {
         cos_total: f32,
         cos_falloff_start: f32,
     },
+    /// Radiance arriving from infinity: `radiance` from every direction, or, with a `map`, the
+    /// map's radiance (which then includes `radiance`), importance-sampled by the map.
     Environment {
         radiance: Rgb,
+        map: Option<Arc<EnvMap>>,
     },
 }
 
@@ -161,10 +166,16 @@ impl Light {
                     delta_pos: true,
                 })
             }
-            Light::Environment { radiance } => {
+            Light::Environment { radiance, ref map } => {
                 // Light arrives from −dir: start on a disk of the scene's bounding sphere's radius,
                 // outside it, perpendicular to dir.
-                let dir = -square_to_uniform_sphere(u_dir);
+                let (dir, le, pdf_dir) = match map {
+                    Some(m) => {
+                        let (d, le, pdf) = m.sample(u_dir)?;
+                        (-d, le, pdf)
+                    }
+                    None => (-square_to_uniform_sphere(u_dir), radiance, INV_4PI),
+                };
                 let d = square_to_concentric_disk(u_pos) * scene_radius;
                 let frame = Frame::from_z(dir);
                 let p =
@@ -174,9 +185,9 @@ impl Light {
                     p_error: Vec3::ZERO,
                     n: dir,
                     dir,
-                    le: radiance,
+                    le,
                     pdf_pos: 1.0 / (PI * scene_radius * scene_radius),
-                    pdf_dir: INV_4PI,
+                    pdf_dir,
                     delta_pos: false,
                 })
             }
@@ -206,7 +217,10 @@ impl Light {
                 1.0,
                 square_to_uniform_cone_pdf(Frame::from_z(axis).to_local(w), cos_total),
             ),
-            Light::Environment { .. } => (1.0 / (PI * scene_radius * scene_radius), INV_4PI),
+            Light::Environment { ref map, .. } => (
+                1.0 / (PI * scene_radius * scene_radius),
+                map.as_ref().map_or(INV_4PI, |m| m.pdf(-w)),
+            ),
         }
     }
 
@@ -248,8 +262,9 @@ impl Light {
                         * PI
                         * ((1.0 - cos_falloff_start) + (cos_falloff_start - cos_total) / 2.0))
             }
-            Light::Environment { radiance } => {
-                radiance * (PI * scene_radius * scene_radius * 4.0 * PI)
+            Light::Environment { radiance, ref map } => {
+                let integral = map.as_ref().map_or(radiance * (4.0 * PI), |m| m.integral());
+                integral * (PI * scene_radius * scene_radius)
             }
         }
     }
@@ -327,12 +342,18 @@ impl Light {
                     infinite: false,
                 })
             }
-            Light::Environment { radiance } => {
-                let wi = square_to_uniform_sphere(u);
+            Light::Environment { radiance, ref map } => {
+                let (wi, li, pdf_w) = match map {
+                    Some(m) => m.sample(u)?,
+                    None => {
+                        let wi = square_to_uniform_sphere(u);
+                        (wi, radiance, square_to_uniform_sphere_pdf(wi))
+                    }
+                };
                 Some(LightSample {
                     wi,
-                    li: radiance,
-                    pdf_w: square_to_uniform_sphere_pdf(wi),
+                    li,
+                    pdf_w,
                     p: p + wi,
                     p_error: Vec3::ZERO,
                     n: -wi,
@@ -349,7 +370,18 @@ impl Light {
         match *self {
             Light::Area { shape, .. } => shapes[shape as usize].pdf_solid_angle(p, lp, ln),
             Light::Point { .. } | Light::Spot { .. } => 0.0,
-            Light::Environment { .. } => INV_4PI,
+            Light::Environment { ref map, .. } => map.as_ref().map_or(INV_4PI, |m| m.pdf(-ln)),
+        }
+    }
+
+    /// Radiance an environment light sends from the unit direction `d` (pointing toward the
+    /// environment, e.g. an escaped ray's); black for other lights.
+    #[inline]
+    pub fn environment_le(&self, d: Vec3) -> Rgb {
+        match self {
+            Light::Environment { map: Some(m), .. } => m.le(d),
+            Light::Environment { radiance, .. } => *radiance,
+            _ => Rgb::BLACK,
         }
     }
 }

@@ -10,10 +10,11 @@
 
 use crate::desc::{
     GeometryDesc, GeometryRaw, LightDesc, LightRaw, MaterialDesc, MaterialRaw, Microfacets,
-    Roughness, SceneDesc, TransformDesc,
+    RotationDesc, Roughness, SceneDesc, TransformDesc,
 };
-use crate::{Camera, Light, Scene, SceneError};
+use crate::{Camera, EnvMap, Light, Scene, SceneError};
 use glam::{DMat3, DQuat, DVec3, Mat3, Vec2, Vec3};
+use lightlab_core::Rgb;
 use lightlab_geometry::{Accel, Geometry, NO_LIGHT, Shape, Sphere, TriangleMesh};
 use lightlab_materials::{Bsdf, Distribution, Material};
 use std::path::Path;
@@ -99,7 +100,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
             LightRaw::Point { position, .. } | LightRaw::Spot { position, .. } => {
                 bounds.add(position)
             }
-            LightRaw::Environment { .. } => {}
+            LightRaw::Environment { .. } | LightRaw::EnvironmentMap { .. } => {}
         }
     }
     for (i, s) in desc.shapes.iter().enumerate() {
@@ -174,7 +175,22 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         }
         shapes.push(shape);
     }
-    lights.extend(desc.lights.iter().map(|l| light(l, origin)));
+    let env = environment_map(&desc.lights, base)
+        .map_err(|(needle, msg)| SceneError::at(path, text, &needle, msg))?;
+    for l in &desc.lights {
+        match l.0 {
+            // Folded into the map.
+            LightRaw::EnvironmentMap { .. } => {}
+            LightRaw::Environment { .. } if env.is_some() => {}
+            _ => lights.push(light(l, origin)),
+        }
+    }
+    if let Some((map, constant)) = env {
+        lights.push(Light::Environment {
+            radiance: constant,
+            map: Some(std::sync::Arc::new(map)),
+        });
+    }
     let mut scene = Scene::new(
         camera,
         Accel::new(shapes),
@@ -328,8 +344,60 @@ fn light(l: &LightDesc, origin: DVec3) -> Light {
             cos_total: cone_angle.to_radians().cos(),
             cos_falloff_start: falloff_start.unwrap_or(cone_angle).to_radians().cos(),
         },
-        LightRaw::Environment { radiance } => Light::Environment { radiance },
+        LightRaw::Environment { radiance } => Light::Environment {
+            radiance,
+            map: None,
+        },
+        LightRaw::EnvironmentMap { .. } => unreachable!("environment maps are built by the loader"),
     }
+}
+
+/// The scene's environment map, if it has one, with the constant environments folded in (their
+/// sum is returned too); on error (text to locate, message).
+fn environment_map(
+    lights: &[LightDesc],
+    base: &Path,
+) -> Result<Option<(EnvMap, Rgb)>, (String, String)> {
+    let maps: Vec<(&String, f32, &Vec<RotationDesc>)> = lights
+        .iter()
+        .filter_map(|l| match &l.0 {
+            LightRaw::EnvironmentMap {
+                file,
+                scale,
+                rotate,
+            } => Some((file, *scale, rotate)),
+            _ => None,
+        })
+        .collect();
+    let (file, scale, rotate) = match maps[..] {
+        [] => return Ok(None),
+        [m] => m,
+        _ => {
+            return Err((
+                "EnvironmentMap".into(),
+                "a scene has at most one EnvironmentMap (add constant Environments to it instead)"
+                    .into(),
+            ));
+        }
+    };
+    let needle = format!("\"{file}\"");
+    let (w, h, texels) =
+        crate::image::read_rgb_exr(&base.join(file)).map_err(|m| (needle.clone(), m))?;
+    let rotation = rotate.iter().fold(DQuat::IDENTITY, |q, r| {
+        DQuat::from_axis_angle(
+            r.axis.as_dvec3().normalize(),
+            (r.degrees as f64).to_radians(),
+        ) * q
+    });
+    let to_world = DMat3::from_quat(rotation).as_mat3();
+    let constant = lights.iter().fold(Rgb::BLACK, |acc, l| match l.0 {
+        LightRaw::Environment { radiance } => acc + radiance,
+        _ => acc,
+    });
+    let map = EnvMap::new(w, h, texels, scale, to_world)
+        .map_err(|m| (needle, format!("{file}: {m}")))?
+        .with_constant(constant);
+    Ok(Some((map, constant)))
 }
 
 /// An affine transform: p ↦ linear·p + translate (in f64), normals by the inverse transpose.

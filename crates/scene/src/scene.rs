@@ -104,12 +104,12 @@ impl Scene {
             .map_or(0.0, |d| d.pmf(i as usize))
     }
 
-    /// Radiance arriving from infinity along a ray that hits nothing (environments are constant).
+    /// Radiance arriving from infinity along a ray of direction `d` (unit) that hits nothing.
     #[inline]
-    pub fn environment_le(&self) -> Rgb {
-        match self.environment.map(|i| &self.lights[i as usize]) {
-            Some(&Light::Environment { radiance }) => radiance,
-            _ => Rgb::BLACK,
+    pub fn environment_le(&self, d: Vec3) -> Rgb {
+        match self.environment {
+            Some(i) => self.lights[i as usize].environment_le(d),
+            None => Rgb::BLACK,
         }
     }
 
@@ -124,9 +124,11 @@ impl Scene {
 /// sample or photon from "the environment" must be drawn from that sum, so they are merged into a
 /// single light (at the first one's place) whose radiance is the sum. With one light per escaped
 /// direction, every estimator's MIS weights and emission densities stay those of a single emitter.
+/// The loader has already folded constant environments into an environment map, if there is one
+/// (there is at most one).
 fn merge_environments(lights: Vec<Light>) -> Vec<Light> {
     let total = lights.iter().fold(None, |acc: Option<Rgb>, l| match l {
-        Light::Environment { radiance } => Some(acc.unwrap_or(Rgb::BLACK) + *radiance),
+        Light::Environment { radiance, .. } => Some(acc.unwrap_or(Rgb::BLACK) + *radiance),
         _ => acc,
     });
     let mut merged = false;
@@ -134,9 +136,19 @@ fn merge_environments(lights: Vec<Light>) -> Vec<Light> {
         .into_iter()
         .filter_map(|l| match l {
             Light::Environment { .. } if merged => None,
-            Light::Environment { .. } => {
+            Light::Environment { map: Some(m), .. } => {
                 merged = true;
-                total.map(|radiance| Light::Environment { radiance })
+                Some(Light::Environment {
+                    radiance: total.unwrap_or(Rgb::BLACK),
+                    map: Some(m),
+                })
+            }
+            Light::Environment { map: None, .. } => {
+                merged = true;
+                total.map(|radiance| Light::Environment {
+                    radiance,
+                    map: None,
+                })
             }
             other => Some(other),
         })

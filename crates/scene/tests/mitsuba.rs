@@ -607,7 +607,9 @@ fn emitters_become_lights() {
             <shape type="sphere"/>
             <emitter type="point"><point name="position" x="1" y="2" z="3"/><rgb name="intensity" value="5"/></emitter>
             <emitter type="point"><transform name="to_world"><translate x="-1"/></transform></emitter>
-            <emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>"#
+            <emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>
+            <emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="2"/>
+                <transform name="to_world"><rotate y="1" angle="90"/></transform></emitter>"#
         ),
     );
     let e = i.desc.shapes[0].emission.unwrap();
@@ -624,12 +626,30 @@ fn emitters_become_lights() {
             true
         )
     );
-    let lights: Vec<LightRaw> = i.desc.lights.iter().map(|l| l.0).collect();
+    let lights: Vec<LightRaw> = i.desc.lights.iter().map(|l| l.0.clone()).collect();
     assert!(matches!(lights[0], LightRaw::Point { position, intensity }
         if close(position, DVec3::new(1.0, 2.0, 3.0)) && intensity == Rgb::splat(5.0)));
     assert!(matches!(lights[1], LightRaw::Point { position, intensity }
         if close(position, DVec3::new(-1.0, 0.0, 0.0)) && intensity == Rgb::WHITE));
     assert!(matches!(lights[2], LightRaw::Environment { radiance } if radiance == Rgb::splat(0.5)));
+    let LightRaw::EnvironmentMap {
+        file,
+        scale,
+        rotate,
+    } = &lights[3]
+    else {
+        panic!("{:?}", lights[3])
+    };
+    assert_eq!((file.as_str(), *scale), ("sky.exr", 2.0));
+    assert!(rotate.len() == 1 && (rotate[0].axis - glam::Vec3::Y).length() < 1e-6);
+    assert!((rotate[0].degrees - 90.0).abs() < 1e-4, "{rotate:?}");
+    let (_, _, m) = err(
+        "envmap-scaled",
+        &format!(
+            "{SENSOR}<emitter type=\"envmap\"><string name=\"filename\" value=\"a.exr\"/><transform name=\"to_world\"><scale value=\"2\"/></transform></emitter>"
+        ),
+    );
+    assert!(m.contains("rotation"), "{m}");
 }
 
 /// The scene files from Mitsuba's tutorials (`../shared/mitsuba-scenes/`, beside the checkout)

@@ -124,7 +124,8 @@ impl Visitor for Subpath<'_> {
             v.class = arrival.class;
             v.depth = arrival.class.len();
             v.infinite = true;
-            v.ng = ray.d.normalize();
+            // At infinity `ng` is the direction light travels in: back along the ray.
+            v.ng = -ray.d.normalize();
             v.pdf_fwd = arrival.pdf_w;
             self.path.push(v);
         }

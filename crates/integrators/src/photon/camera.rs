@@ -217,9 +217,10 @@ impl<T: Sampler> Visitor for ToVisiblePoint<'_, '_, T> {
     }
 
     #[inline]
-    fn escaped(&mut self, _ray: &Ray, beta: Rgb, arrival: &Arrival, counters: &mut Counters) {
+    fn escaped(&mut self, ray: &Ray, beta: Rgb, arrival: &Arrival, counters: &mut Counters) {
         if arrival.class.len() >= self.cfg.min_bounces {
-            let c = environment_found(self.scene, beta, arrival, self.competition);
+            let d = ray.d.normalize();
+            let c = environment_found(self.scene, beta, d, arrival, self.competition);
             if !c.is_black() {
                 self.l
                     .add_eye_or_count(&arrival.class, c, Technique::Camera, counters);

@@ -2,7 +2,7 @@
 //! a point and direction sampled on it, and the flux the path carries.
 
 use super::vertex::{Kind, PathVertex};
-use lightlab_core::{INV_4PI, Ray, Rgb};
+use lightlab_core::{Ray, Rgb};
 use lightlab_geometry::spawn_ray;
 use lightlab_samplers::Sampler;
 use lightlab_scene::{Light, Scene};
@@ -34,7 +34,7 @@ pub(crate) fn emit<S: Sampler>(scene: &Scene, sampler: &mut S) -> Option<Emitted
     if infinite {
         origin.infinite = true;
         origin.ng = em.dir;
-        origin.pdf_fwd = pmf * INV_4PI;
+        origin.pdf_fwd = pmf * em.pdf_dir;
     } else {
         origin.pdf_fwd = pmf * em.pdf_pos;
         if !em.delta_pos {

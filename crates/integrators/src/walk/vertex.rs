@@ -5,7 +5,7 @@
 
 use crate::paths::PathClass;
 use glam::Vec3;
-use lightlab_core::{INV_4PI, Ray, Rgb, TransportMode};
+use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_geometry::{NO_LIGHT, spawn_ray, spawn_ray_to, spawn_ray_to_point};
 use lightlab_materials::{BsdfSample, SurfaceBsdf};
 use lightlab_scene::{Light, Scene};
@@ -129,13 +129,14 @@ impl PathVertex {
         let Some(light) = self.light() else {
             return Rgb::BLACK;
         };
-        match scene.lights[light as usize] {
-            Light::Area {
+        match &scene.lights[light as usize] {
+            &Light::Area {
                 radiance,
                 two_sided,
                 ..
             } => Light::area_le(radiance, two_sided, self.ng, w),
-            Light::Environment { radiance } if self.infinite => radiance,
+            // Emitted toward the scene along w: it arrives from −w.
+            l @ Light::Environment { .. } if self.infinite => l.environment_le(-w),
             _ => Rgb::BLACK,
         }
     }
@@ -212,12 +213,10 @@ impl PathVertex {
             return 0.0;
         };
         let pmf = scene.light_pmf(light);
-        if self.infinite {
-            return pmf * INV_4PI;
-        }
-        let (pdf_pos, _) =
+        let (pdf_pos, pdf_dir) =
             scene.lights[light as usize].pdf_le(scene.shapes(), scene.radius, self.ng, self.ng);
-        pmf * pdf_pos
+        // At infinity `ng` is the direction the light travels in.
+        pmf * if self.infinite { pdf_dir } else { pdf_pos }
     }
 
     /// The solid-angle densities of the step this vertex took into `s` and of the reverse step

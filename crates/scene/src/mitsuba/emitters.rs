@@ -1,10 +1,10 @@
-//! Mitsuba emitters: `area` (on a shape), `point` and `constant`.
+//! Mitsuba emitters: `area` (on a shape), `point`, `constant` and `envmap`.
 
 use super::object::Object;
 use super::xml::Element;
 use crate::SceneError;
-use crate::desc::{EmissionDesc, LightDesc, LightRaw};
-use glam::DVec3;
+use crate::desc::{EmissionDesc, LightDesc, LightRaw, RotationDesc};
+use glam::{DMat3, DMat4, DQuat, DVec3};
 use lightlab_core::Rgb;
 
 /// The emission of an `<emitter type="area">` nested in a shape: one-sided, like Mitsuba's.
@@ -50,6 +50,39 @@ pub(crate) fn light(el: &Element) -> Result<LightDesc, SceneError> {
             non_negative(&o, "radiance", radiance)?;
             LightRaw::Environment { radiance }
         }
+        "envmap" => {
+            let file = o
+                .string("filename")?
+                .ok_or_else(|| o.error("an envmap needs a filename"))?;
+            let scale = o.float_or("scale", 1.0)?;
+            if o.boolean("mis_compensation", false)? {
+                return Err(o.error("mis_compensation is not imported"));
+            }
+            let m = o.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+            let lin = DMat3::from_mat4(m);
+            let rigid = (lin.transpose() * lin - DMat3::IDENTITY)
+                .to_cols_array()
+                .iter()
+                .all(|x| x.abs() < 1e-5)
+                && lin.determinant() > 0.0;
+            if !rigid {
+                return Err(o.error("an envmap's to_world must be a rotation"));
+            }
+            let (axis, angle) = DQuat::from_mat3(&lin).to_axis_angle();
+            let rotate = if angle.abs() > 1e-12 {
+                vec![RotationDesc {
+                    axis: axis.as_vec3(),
+                    degrees: angle.to_degrees() as f32,
+                }]
+            } else {
+                Vec::new()
+            };
+            LightRaw::EnvironmentMap {
+                file: file.to_string(),
+                scale: scale as f32,
+                rotate,
+            }
+        }
         "area" => {
             return Err(o.error(
                 "an area emitter belongs inside the <shape> that emits (Mitsuba's syntax)",
@@ -57,7 +90,7 @@ pub(crate) fn light(el: &Element) -> Result<LightDesc, SceneError> {
         }
         other => {
             return Err(o.error(format!(
-                "emitter type '{other}' is not imported (supported: area, point, constant)"
+                "emitter type '{other}' is not imported (supported: area, point, constant, envmap)"
             )));
         }
     };
