@@ -624,7 +624,8 @@ pub enum LightRaw {
     /// Isotropic point light with radiant `intensity` (W·sr⁻¹, ≥ 0).
     Point { position: DVec3, intensity: Rgb },
     /// Spot light at `position` aimed at `target`: full `intensity` inside `falloff_start` degrees of
-    /// the axis, smoothstep falloff to zero at `cone_angle` degrees (pbrt-v4 §12.2.1).
+    /// the axis, falling off to zero at `cone_angle` degrees: `profile` `Smoothstep` in cos θ
+    /// (default; pbrt-v4 §12.2.1) or `Angular`, linear in the angle (Mitsuba 3's spot).
     /// 0 < falloff_start ≤ cone_angle ≤ 180; default falloff_start = cone_angle (a hard edge).
     Spot {
         position: DVec3,
@@ -633,6 +634,8 @@ pub enum LightRaw {
         cone_angle: f32,
         #[serde(default)]
         falloff_start: Option<f32>,
+        #[serde(default)]
+        profile: crate::SpotProfile,
     },
     /// Constant radiance arriving from every direction at infinity (≥ 0).
     Environment { radiance: Rgb },
@@ -671,6 +674,7 @@ impl TryFrom<LightRaw> for LightDesc {
                 intensity,
                 cone_angle,
                 falloff_start,
+                ..
             } => {
                 finite_dvec("Spot position", position)?;
                 finite_dvec("Spot target", target)?;

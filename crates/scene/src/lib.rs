@@ -20,6 +20,6 @@ mod scene;
 pub use camera::{Camera, CameraSample};
 pub use envmap::EnvMap;
 pub use error::SceneError;
-pub use light::{Light, LightEmission, LightSample, spot_falloff};
+pub use light::{Light, LightEmission, LightSample, SpotProfile, spot_falloff};
 pub use load::{build_scene, load_scene, parse_scene};
 pub use scene::Scene;

@@ -26,13 +26,15 @@ pub enum Light {
         position: Vec3,
         intensity: Rgb,
     },
-    /// `cos_falloff_start ≥ cos_total`; smoothstep falloff between them (pbrt-v4 §12.2.1).
+    /// `cos_falloff_start ≥ cos_total`; full intensity inside the falloff start, none outside
+    /// the cone, and between them the `profile`'s falloff.
     Spot {
         position: Vec3,
         axis: Vec3,
         intensity: Rgb,
         cos_total: f32,
         cos_falloff_start: f32,
+        profile: SpotProfile,
     },
     /// Radiance arriving from infinity: `radiance` from every direction, or, with a `map`, the
     /// map's radiance (which then includes `radiance`), importance-sampled by the map.
@@ -150,10 +152,11 @@ impl Light {
                 intensity,
                 cos_total,
                 cos_falloff_start,
+                profile,
             } => {
                 let local = square_to_uniform_cone(u_dir, cos_total);
                 let dir = Frame::from_z(axis).to_world(local);
-                let falloff = spot_falloff(local.z, cos_total, cos_falloff_start);
+                let falloff = profile.falloff(local.z, cos_total, cos_falloff_start);
                 let pdf_dir = square_to_uniform_cone_pdf(local, cos_total);
                 Some(LightEmission {
                     p: position,
@@ -254,14 +257,9 @@ impl Light {
                 intensity,
                 cos_total,
                 cos_falloff_start,
+                profile,
                 ..
-            } => {
-                // ∫ smoothstep falloff dω = 2π [(1 − cos_start) + (cos_start − cos_total)/2]
-                intensity
-                    * (2.0
-                        * PI
-                        * ((1.0 - cos_falloff_start) + (cos_falloff_start - cos_total) / 2.0))
-            }
+            } => intensity * profile.solid_angle(cos_total, cos_falloff_start),
             Light::Environment { radiance, ref map } => {
                 let integral = map.as_ref().map_or(radiance * (4.0 * PI), |m| m.integral());
                 integral * (PI * scene_radius * scene_radius)
@@ -323,6 +321,7 @@ impl Light {
                 intensity,
                 cos_total,
                 cos_falloff_start,
+                profile,
             } => {
                 let d = position - p;
                 let dist2 = d.length_squared();
@@ -330,7 +329,7 @@ impl Light {
                     return None;
                 }
                 let wi = d / dist2.sqrt();
-                let falloff = spot_falloff(axis.dot(-wi), cos_total, cos_falloff_start);
+                let falloff = profile.falloff(axis.dot(-wi), cos_total, cos_falloff_start);
                 Some(LightSample {
                     wi,
                     li: intensity * (falloff / dist2),
@@ -386,6 +385,54 @@ impl Light {
     }
 }
 
+/// How a spot light fades between the start of its falloff and the edge of its cone.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+pub enum SpotProfile {
+    /// Smoothstep in cos θ (pbrt-v4 §12.2.1).
+    #[default]
+    Smoothstep,
+    /// Linear in the angle θ (Mitsuba 3's `spot`, its `beam_width` to `cutoff_angle`).
+    Angular,
+}
+
+impl SpotProfile {
+    /// The falloff at cos θ from the axis.
+    #[inline]
+    pub fn falloff(self, cos_theta: f32, cos_total: f32, cos_falloff_start: f32) -> f32 {
+        match self {
+            SpotProfile::Smoothstep => spot_falloff(cos_theta, cos_total, cos_falloff_start),
+            SpotProfile::Angular => {
+                if cos_theta >= cos_falloff_start {
+                    return 1.0;
+                }
+                if cos_theta <= cos_total {
+                    return 0.0;
+                }
+                let (total, start) = (cos_total.acos(), cos_falloff_start.acos());
+                ((total - cos_theta.acos()) / (total - start)).clamp(0.0, 1.0)
+            }
+        }
+    }
+
+    /// ∫ falloff dω over the sphere.
+    fn solid_angle(self, cos_total: f32, cos_falloff_start: f32) -> f32 {
+        let inner = 1.0 - cos_falloff_start;
+        match self {
+            // ∫ smoothstep dω = 2π [(1 − cos_start) + (cos_start − cos_total)/2].
+            SpotProfile::Smoothstep => 2.0 * PI * (inner + (cos_falloff_start - cos_total) / 2.0),
+            // With b, c the start and edge angles, ∫_b^c (c − θ)/(c − b) sin θ dθ =
+            // cos b + (sin b − sin c)/(c − b).
+            SpotProfile::Angular => {
+                let (c, b) = (cos_total.acos(), cos_falloff_start.acos());
+                if c - b <= 1e-6 {
+                    return 2.0 * PI * (1.0 - cos_total);
+                }
+                2.0 * PI * (inner + cos_falloff_start + (b.sin() - c.sin()) / (c - b))
+            }
+        }
+    }
+}
+
 /// Smoothstep falloff of a spot light between the cone edge and the start of the falloff
 /// (pbrt-v4 eq. 12.2 with the smoothstep of §B.2.3).
 #[inline]
@@ -407,27 +454,33 @@ mod tests {
     #[test]
     fn spot_power_matches_integrated_falloff() {
         let (ct, cs) = (30f32.to_radians().cos(), 20f32.to_radians().cos());
-        let l = Light::Spot {
-            position: Vec3::ZERO,
-            axis: Vec3::Z,
-            intensity: Rgb::WHITE,
-            cos_total: ct,
-            cos_falloff_start: cs,
-        };
-        // Midpoint rule over cos θ: ∫ falloff dω = 2π ∫ falloff(cos θ) d cos θ.
-        let n = 200_000;
-        let integral: f64 = (0..n)
-            .map(|i| {
-                let c = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
-                spot_falloff(c as f32, ct, cs) as f64 * 2.0 / n as f64
-            })
-            .sum::<f64>()
-            * 2.0
-            * std::f64::consts::PI;
-        let p = l.power(&[], 1.0).r as f64;
-        assert!(
-            (p - integral).abs() < 1e-4 * p,
-            "power {p} vs integral {integral}"
-        );
+        for profile in [SpotProfile::Smoothstep, SpotProfile::Angular] {
+            let l = Light::Spot {
+                position: Vec3::ZERO,
+                axis: Vec3::Z,
+                intensity: Rgb::WHITE,
+                cos_total: ct,
+                cos_falloff_start: cs,
+                profile,
+            };
+            // Midpoint rule over cos θ: ∫ falloff dω = 2π ∫ falloff(cos θ) d cos θ.
+            let n = 200_000;
+            let integral: f64 = (0..n)
+                .map(|i| {
+                    let c = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
+                    profile.falloff(c as f32, ct, cs) as f64 * 2.0 / n as f64
+                })
+                .sum::<f64>()
+                * 2.0
+                * std::f64::consts::PI;
+            let p = l.power(&[], 1.0).r as f64;
+            assert!(
+                (p - integral).abs() < 1e-4 * p,
+                "{profile:?}: power {p} vs integral {integral}"
+            );
+        }
+        // Mitsuba's profile is linear in the angle: half way (25°) between 20° and 30°, 1/2.
+        let half = SpotProfile::Angular.falloff(25f32.to_radians().cos(), ct, cs);
+        assert!((half - 0.5).abs() < 1e-5, "{half}");
     }
 }

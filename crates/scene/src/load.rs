@@ -337,12 +337,14 @@ fn light(l: &LightDesc, origin: DVec3) -> Light {
             intensity,
             cone_angle,
             falloff_start,
+            profile,
         } => Light::Spot {
             position: (position - origin).as_vec3(),
             axis: (target - position).normalize().as_vec3(),
             intensity,
             cos_total: cone_angle.to_radians().cos(),
             cos_falloff_start: falloff_start.unwrap_or(cone_angle).to_radians().cos(),
+            profile,
         },
         LightRaw::Environment { radiance } => Light::Environment {
             radiance,

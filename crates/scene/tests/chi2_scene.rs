@@ -276,6 +276,7 @@ fn chi2_point_and_spot_light_sample_le() {
         intensity: Rgb::WHITE,
         cos_total: 35f32.to_radians().cos(),
         cos_falloff_start: 25f32.to_radians().cos(),
+        profile: lightlab_scene::SpotProfile::Smoothstep,
     };
     for (k, (name, light)) in [("point", point), ("spot", spot)].into_iter().enumerate() {
         Chi2Test::new(Domain::Sphere)

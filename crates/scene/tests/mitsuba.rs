@@ -131,7 +131,11 @@ fn unsupported_plugins_are_errors_naming_what_is_supported() {
     for (name, body, expect) in [
         ("plastic", "<bsdf type=\"plastic\"/>", "BSDF type 'plastic'"),
         ("disk", "<shape type=\"disk\"/>", "shape type 'disk'"),
-        ("spot", "<emitter type=\"spot\"/>", "emitter type 'spot'"),
+        (
+            "directional",
+            "<emitter type=\"directional\"/>",
+            "emitter type 'directional'",
+        ),
         (
             "texture",
             "<texture type=\"bitmap\" id=\"t\"/>",
@@ -608,6 +612,8 @@ fn emitters_become_lights() {
             <emitter type="point"><point name="position" x="1" y="2" z="3"/><rgb name="intensity" value="5"/></emitter>
             <emitter type="point"><transform name="to_world"><translate x="-1"/></transform></emitter>
             <emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>
+            <emitter type="spot"><rgb name="intensity" value="3"/><float name="cutoff_angle" value="40"/>
+                <transform name="to_world"><lookat origin="1, 2, 3" target="1, 0, 3" up="1, 0, 0"/></transform></emitter>
             <emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="2"/>
                 <transform name="to_world"><rotate y="1" angle="90"/></transform></emitter>"#
         ),
@@ -632,13 +638,31 @@ fn emitters_become_lights() {
     assert!(matches!(lights[1], LightRaw::Point { position, intensity }
         if close(position, DVec3::new(-1.0, 0.0, 0.0)) && intensity == Rgb::WHITE));
     assert!(matches!(lights[2], LightRaw::Environment { radiance } if radiance == Rgb::splat(0.5)));
+    // Mitsuba's spot: to_world's origin, its +z, beam_width 3/4 of the cutoff, linear in angle.
+    let LightRaw::Spot {
+        position,
+        target,
+        intensity,
+        cone_angle,
+        falloff_start,
+        profile,
+    } = lights[3]
+    else {
+        panic!("{:?}", lights[3])
+    };
+    assert!(close(position, DVec3::new(1.0, 2.0, 3.0)) && close(target, DVec3::new(1.0, 1.0, 3.0)));
+    assert_eq!(
+        (intensity, cone_angle, falloff_start),
+        (Rgb::splat(3.0), 40.0, Some(30.0))
+    );
+    assert_eq!(profile, lightlab_scene::SpotProfile::Angular);
     let LightRaw::EnvironmentMap {
         file,
         scale,
         rotate,
-    } = &lights[3]
+    } = &lights[4]
     else {
-        panic!("{:?}", lights[3])
+        panic!("{:?}", lights[4])
     };
     assert_eq!((file.as_str(), *scale), ("sky.exr", 2.0));
     assert!(rotate.len() == 1 && (rotate[0].axis - glam::Vec3::Y).length() < 1e-6);

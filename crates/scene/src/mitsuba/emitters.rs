@@ -50,6 +50,27 @@ pub(crate) fn light(el: &Element) -> Result<LightDesc, SceneError> {
             non_negative(&o, "radiance", radiance)?;
             LightRaw::Environment { radiance }
         }
+        "spot" => {
+            // Mitsuba's spot sits at to_world's origin and shines along its +z.
+            let m = o.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+            let position = m.transform_point3(DVec3::ZERO);
+            let axis = m.transform_vector3(DVec3::Z).normalize_or_zero();
+            if axis == DVec3::ZERO {
+                return Err(o.error("a spot's to_world must not collapse its axis"));
+            }
+            let intensity = o.color("intensity")?.unwrap_or(Rgb::WHITE);
+            non_negative(&o, "intensity", intensity)?;
+            let cutoff = o.float_or("cutoff_angle", 20.0)?;
+            let beam = o.float_or("beam_width", cutoff * 0.75)?;
+            LightRaw::Spot {
+                position,
+                target: position + axis,
+                intensity,
+                cone_angle: cutoff as f32,
+                falloff_start: Some(beam as f32),
+                profile: crate::SpotProfile::Angular,
+            }
+        }
         "envmap" => {
             let file = o
                 .string("filename")?
@@ -90,7 +111,8 @@ pub(crate) fn light(el: &Element) -> Result<LightDesc, SceneError> {
         }
         other => {
             return Err(o.error(format!(
-                "emitter type '{other}' is not imported (supported: area, point, constant, envmap)"
+                "emitter type '{other}' is not imported (supported: area, point, spot, constant, \
+                 envmap)"
             )));
         }
     };
