@@ -130,7 +130,11 @@ fn malformed_xml_and_unknown_parameters_are_located() {
 fn unsupported_plugins_are_errors_naming_what_is_supported() {
     for (name, body, expect) in [
         ("plastic", "<bsdf type=\"plastic\"/>", "BSDF type 'plastic'"),
-        ("disk", "<shape type=\"disk\"/>", "shape type 'disk'"),
+        (
+            "shapegroup",
+            "<shape type=\"shapegroup\"/>",
+            "shape type 'shapegroup'",
+        ),
         (
             "directional",
             "<emitter type=\"directional\"/>",
@@ -699,4 +703,45 @@ fn shared_tutorial_scenes_import() {
         "Path(max_bounces: Some(1))"
     );
     lightlab_scene::build_scene(simple.desc, &shared.join("simple.xml")).unwrap();
+}
+
+/// A disk is a fan of triangles with the disk's exact area, facing the transformed +z, within
+/// 4·10⁻⁶ of the radius everywhere on its rim, and the import says so.
+#[test]
+fn disks_keep_their_area_and_orientation() {
+    let i = ok(
+        "disk",
+        &format!(
+            r#"{SENSOR}<shape type="disk"><transform name="to_world"><scale value="2"/>
+            <rotate x="1" angle="90"/><translate y="1"/></transform></shape>"#
+        ),
+    );
+    let GeometryRaw::Mesh {
+        positions, indices, ..
+    } = &i.desc.shapes[0].geometry.0
+    else {
+        panic!()
+    };
+    let centre = DVec3::new(0.0, 1.0, 0.0);
+    // +90° about x takes +z to −y.
+    let mut area = 0.0;
+    for &(a, b, c) in indices {
+        let (a, b, c) = (
+            positions[a as usize],
+            positions[b as usize],
+            positions[c as usize],
+        );
+        let n = (b - a).cross(c - a);
+        assert!(n.normalize().dot(DVec3::NEG_Y) > 0.999_999, "{n}");
+        area += 0.5 * n.length();
+        let mid = (b + c) / 2.0;
+        for p in [b, mid] {
+            assert!(((p - centre).length() - 2.0).abs() < 1e-5, "{p}");
+        }
+    }
+    assert!(
+        (area / (4.0 * std::f64::consts::PI) - 1.0).abs() < 1e-12,
+        "{area}"
+    );
+    assert!(i.notes.iter().any(|n| n.contains("disk")), "{:?}", i.notes);
 }

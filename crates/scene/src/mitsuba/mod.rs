@@ -87,6 +87,15 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
                 let emitter = o.nested(&["emitter"]);
                 let geometry = shapes::geometry(&o, base)?;
                 o.finish()?;
+                if o.ty == "disk" {
+                    notes.push(format!(
+                        "{}:{}: the disk is {} triangles with its exact area (Lightlab has no \
+                         analytic disk): its rim is within 4·10⁻⁶ of the radius",
+                        el.at.file.display(),
+                        el.at.line,
+                        shapes::DISK_SEGMENTS
+                    ));
+                }
                 let material = match bsdf[..] {
                     [] => materials.default_diffuse(),
                     [b] => materials.add(refs.resolve(b, "bsdf")?, &refs)?,

@@ -49,6 +49,31 @@ pub(crate) fn geometry(o: &Object, base: &Path) -> Result<GeometryDesc, SceneErr
                 corners: (c[0], p1, c[2], p3),
             }
         }
+        "disk" => {
+            // The unit disk in z = 0 facing +z, as a fan of DISK_SEGMENTS triangles whose rim is
+            // pushed out by √(θ / sin θ), θ = 2π/n, so that the area is the disk's exactly; the
+            // boundary then stays within 4·10⁻⁶ of the radius (an approximation the import notes).
+            let n = DISK_SEGMENTS;
+            let theta = std::f64::consts::TAU / n as f64;
+            let k = (theta / theta.sin()).sqrt();
+            let mut positions = vec![to_world.transform_point3(DVec3::ZERO)];
+            positions.extend((0..n).map(|i| {
+                let (s, c) = (i as f64 * theta).sin_cos();
+                to_world.transform_point3(DVec3::new(k * c, k * s, 0.0))
+            }));
+            let mirror = (to_world.determinant() < 0.0) != flip;
+            let indices = (0..n as u32)
+                .map(|i| {
+                    let (a, b) = (1 + i, 1 + (i + 1) % n as u32);
+                    if mirror { (0, b, a) } else { (0, a, b) }
+                })
+                .collect();
+            GeometryRaw::Mesh {
+                positions,
+                indices,
+                normals: None,
+            }
+        }
         "cube" => {
             let mut positions = Vec::with_capacity(24);
             let mut indices = Vec::with_capacity(12);
@@ -110,12 +135,15 @@ pub(crate) fn geometry(o: &Object, base: &Path) -> Result<GeometryDesc, SceneErr
         other => {
             return Err(o.error(format!(
                 "shape type '{other}' is not imported (supported: obj, ply, rectangle, cube, \
-                 sphere)"
+                 sphere, disk)"
             )));
         }
     };
     GeometryDesc::try_from(g).map_err(|e| o.error(format!("{}: {e}", o.describe())))
 }
+
+/// Triangles of a tessellated `disk`.
+pub(crate) const DISK_SEGMENTS: usize = 1024;
 
 type Mesh = (Vec<DVec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>);
 
