@@ -1,3 +1,11 @@
+"""Measures how Mitsuba 3 evaluates a latitude-longitude environment map: writes an 8 x 4 probe image
+whose texel (i, j) holds (i + 1, j + 1, 100 j + i + 1), loads it as an `envmap` and prints the radiance
+Mitsuba's `eval` returns at chosen (u, v). The values are the reference of
+crates/scene/src/envmap.rs's `radiance_matches_mitsuba_at_probe_points` (texel centres at
+u = (i + 1/2)/w, wrapping; rows at v = j/(h - 1); u = atan2(x, -z)/2pi, v = acos(y)/pi).
+
+    pip install mitsuba numpy && python3 benches/peers/mitsuba_envmap_probe.py
+"""
 import mitsuba as mi, numpy as np, math
 mi.set_variant('scalar_rgb')
 w,h=8,4

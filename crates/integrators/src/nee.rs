@@ -139,7 +139,7 @@ fn light_pdf_of_hit(scene: &Scene, from: Vec3, v: &PathVertex) -> f32 {
 #[inline]
 fn environment_light_pdf(scene: &Scene, d: Vec3) -> f32 {
     scene.environment_light().map_or(0.0, |i| {
-        scene.light_pmf(i) * scene.lights[i as usize].pdf_li(&[], Vec3::ZERO, d, -d)
+        scene.light_pmf(i) * scene.lights[i as usize].environment_pdf(d)
     })
 }
 

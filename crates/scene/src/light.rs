@@ -369,7 +369,18 @@ impl Light {
         match *self {
             Light::Area { shape, .. } => shapes[shape as usize].pdf_solid_angle(p, lp, ln),
             Light::Point { .. } | Light::Spot { .. } => 0.0,
-            Light::Environment { ref map, .. } => map.as_ref().map_or(INV_4PI, |m| m.pdf(-ln)),
+            Light::Environment { .. } => self.environment_pdf(-ln),
+        }
+    }
+
+    /// Solid-angle density with which an environment light's `sample_li` returns the unit
+    /// direction `d` (toward the environment); zero for other lights.
+    #[inline]
+    pub fn environment_pdf(&self, d: Vec3) -> f32 {
+        match self {
+            Light::Environment { map: Some(m), .. } => m.pdf(d),
+            Light::Environment { .. } => INV_4PI,
+            _ => 0.0,
         }
     }
 

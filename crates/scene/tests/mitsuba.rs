@@ -62,6 +62,16 @@ fn material(i: &Imported, name: &str) -> (MaterialRaw, bool) {
     (m.raw, m.one_sided)
 }
 
+/// The corners of each triangle of a mesh.
+fn triangles<'a>(
+    positions: &'a [DVec3],
+    indices: &'a [(u32, u32, u32)],
+) -> impl Iterator<Item = [DVec3; 3]> + 'a {
+    indices
+        .iter()
+        .map(|&(a, b, c)| [a, b, c].map(|k| positions[k as usize]))
+}
+
 fn close(a: DVec3, b: DVec3) -> bool {
     (a - b).length() < 1e-9 * (1.0 + b.length())
 }
@@ -453,12 +463,7 @@ fn cubes_face_outward_and_spheres_take_their_transform() {
     };
     assert_eq!(indices.len(), 12);
     let centre = DVec3::new(10.0, 0.0, 0.0);
-    for &(a, b, c) in indices {
-        let (a, b, c) = (
-            positions[a as usize],
-            positions[b as usize],
-            positions[c as usize],
-        );
+    for [a, b, c] in triangles(positions, indices) {
         let n = (b - a).cross(c - a);
         assert!(
             n.dot((a + b + c) / 3.0 - centre) > 0.0,
@@ -725,12 +730,7 @@ fn disks_keep_their_area_and_orientation() {
     let centre = DVec3::new(0.0, 1.0, 0.0);
     // +90° about x takes +z to −y.
     let mut area = 0.0;
-    for &(a, b, c) in indices {
-        let (a, b, c) = (
-            positions[a as usize],
-            positions[b as usize],
-            positions[c as usize],
-        );
+    for [a, b, c] in triangles(positions, indices) {
         let n = (b - a).cross(c - a);
         assert!(n.normalize().dot(DVec3::NEG_Y) > 0.999_999, "{n}");
         area += 0.5 * n.length();
