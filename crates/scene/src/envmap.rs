@@ -32,13 +32,15 @@ pub struct EnvMap {
 }
 
 impl EnvMap {
-    /// `texels` row by row from the top (w × h, h ≥ 2), linear RGB, all finite and ≥ 0; `to_world`
+    /// `texels` row by row from the top (w × h, h ≥ 2), linear RGB, all finite and ≥ 0, times
+    /// `scale`, plus `constant` everywhere (constant environments merged with the map); `to_world`
     /// a rotation.
     pub fn new(
         width: usize,
         height: usize,
         texels: Vec<Rgb>,
         scale: f32,
+        constant: Rgb,
         to_world: Mat3,
     ) -> Result<EnvMap, String> {
         if width < 1 || height < 2 || texels.len() != width * height {
@@ -64,20 +66,13 @@ impl EnvMap {
             height,
             texels,
             scale,
-            constant: Rgb::BLACK,
+            constant,
             to_world,
             to_local: to_world.inverse(),
             dist: Distribution2D::new(&[1.0], 1, 1).expect("a constant density"),
         };
         map.build_distribution();
         Ok(map)
-    }
-
-    /// The same map plus a constant radiance everywhere.
-    pub fn with_constant(mut self, constant: Rgb) -> EnvMap {
-        self.constant = constant;
-        self.build_distribution();
-        self
     }
 
     fn texel(&self, i: isize, j: usize) -> Rgb {
@@ -190,7 +185,7 @@ mod tests {
                 })
             })
             .collect();
-        EnvMap::new(8, 4, texels, 1.0, Mat3::IDENTITY).unwrap()
+        EnvMap::new(8, 4, texels, 1.0, Rgb::BLACK, Mat3::IDENTITY).unwrap()
     }
 
     /// The values Mitsuba 3.9.1's `envmap` `eval` returns for the probe image at these (u, v)
@@ -225,10 +220,12 @@ mod tests {
     #[test]
     fn integral_and_sample_densities_agree() {
         let c = Rgb::new(0.5, 1.0, 2.0);
-        let flat = EnvMap::new(16, 9, vec![c; 16 * 9], 2.0, Mat3::IDENTITY).unwrap();
+        let flat = EnvMap::new(16, 9, vec![c; 16 * 9], 2.0, Rgb::BLACK, Mat3::IDENTITY).unwrap();
         let i = flat.integral();
         assert!((i.g / (8.0 * PI) - 1.0).abs() < 1e-3, "{i:?}");
-        let map = probe().with_constant(Rgb::splat(0.1));
+        let mut map = probe();
+        map.constant = Rgb::splat(0.1);
+        map.build_distribution();
         for k in 0..200 {
             let u = Vec2::new(
                 (k as f32 * 0.618034) % 1.0,

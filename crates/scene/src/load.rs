@@ -396,9 +396,8 @@ fn environment_map(
         LightRaw::Environment { radiance } => acc + radiance,
         _ => acc,
     });
-    let map = EnvMap::new(w, h, texels, scale, to_world)
-        .map_err(|m| (needle, format!("{file}: {m}")))?
-        .with_constant(constant);
+    let map = EnvMap::new(w, h, texels, scale, constant, to_world)
+        .map_err(|m| (needle, format!("{file}: {m}")))?;
     Ok(Some((map, constant)))
 }
 

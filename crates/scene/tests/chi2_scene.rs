@@ -109,9 +109,7 @@ fn chi2_environment_map() {
         })
         .collect();
     let rotation = glam::Mat3::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.7);
-    let map = lightlab_scene::EnvMap::new(w, h, texels, 1.5, rotation)
-        .unwrap()
-        .with_constant(Rgb::splat(0.01));
+    let map = lightlab_scene::EnvMap::new(w, h, texels, 1.5, Rgb::splat(0.01), rotation).unwrap();
     let light = Light::Environment {
         radiance: Rgb::splat(0.01),
         map: Some(std::sync::Arc::new(map)),

@@ -594,6 +594,17 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
         &format!("{SENSOR}<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"1.5\"/></bsdf>"),
     );
     assert!(m.contains("[0, 1]"), "{m}");
+    // A malformed number for an IOR is reported as such, not as a missing <string>.
+    let (_, _, m) = err(
+        "bad-ior",
+        &format!(
+            "{SENSOR}<bsdf type=\"dielectric\"><float name=\"int_ior\" value=\"1,5\"/></bsdf>"
+        ),
+    );
+    assert!(
+        m.contains("'int_ior' = '1,5' is not a finite number"),
+        "{m}"
+    );
     let (_, _, m) = err(
         "anisotropic",
         &format!(

@@ -173,7 +173,9 @@ fn roughness(o: &Object) -> Result<(Roughness, Microfacets), SceneError> {
 /// `int_ior / ext_ior`, each a number or one of Mitsuba's named media (defaults bk7 and air).
 fn relative_ior(o: &Object) -> Result<f32, SceneError> {
     let ior = |name: &str, default: &str| -> Result<f64, SceneError> {
-        if let Ok(Some(x)) = o.float(name) {
+        if matches!(o.tag_of(name), Some("float" | "integer"))
+            && let Some(x) = o.float(name)?
+        {
             return Ok(x);
         }
         let preset = o.string(name)?.unwrap_or(default);

@@ -69,6 +69,15 @@ impl<'a> Object<'a> {
         Some(&self.el.children[i])
     }
 
+    /// The element type (`float`, `string`, …) of parameter `name`, without reading it.
+    pub fn tag_of(&self, name: &str) -> Option<&'a str> {
+        self.el
+            .children
+            .iter()
+            .find(|c| PROPERTY_TAGS.contains(&c.tag.as_str()) && c.attr("name") == Some(name))
+            .map(|c| c.tag.as_str())
+    }
+
     fn typed(&self, name: &str, tags: &[&str]) -> Result<Option<&'a Element>, SceneError> {
         match self.property(name) {
             Some(p) if !tags.contains(&p.tag.as_str()) => Err(p.at.error(format!(
