@@ -522,7 +522,7 @@ mod tests {
         for _ in 0..40 {
             let center = tf(snap(vec(&mut rng, -1.0, 1.0)));
             let radius = scale * (rng.random_range(1..16) as f32 / 64.0);
-            shapes.push(shape(Geometry::Sphere(Sphere { center, radius }), 2));
+            shapes.push(shape(Geometry::Sphere(Sphere::new(center, radius)), 2));
         }
         shapes
     }
@@ -655,10 +655,7 @@ mod tests {
             tri(Vec3::new(0.0, 0.0, 1e6), 1e3),
             tri(Vec3::new(0.0, 0.0, 0.0), 1.0),
             shape(
-                Geometry::Sphere(Sphere {
-                    center: Vec3::new(0.0, 5.0, 0.0),
-                    radius: 1.0,
-                }),
+                Geometry::Sphere(Sphere::new(Vec3::new(0.0, 5.0, 0.0), 1.0)),
                 0,
             ),
         ]);
@@ -689,10 +686,7 @@ mod tests {
         assert_eq!(empty.triangle_count(), 0);
 
         let one = Accel::new(vec![shape(
-            Geometry::Sphere(Sphere {
-                center: Vec3::new(0.0, 0.0, 3.0),
-                radius: 1.0,
-            }),
+            Geometry::Sphere(Sphere::new(Vec3::new(0.0, 0.0, 3.0), 1.0)),
             4,
         )]);
         let h = one.intersect(&ray).unwrap();

@@ -138,7 +138,7 @@ impl TriangleMesh {
         self.indices[i].map(|k| self.positions[k as usize])
     }
 
-    /// The (u, v) of triangle `i`'s vertices (pbrt's default (0,0), (1,0), (1,1) without uvs).
+    /// The (u, v) of triangle `i`'s vertices ((0, 0), (1, 0), (0, 1) without uvs: barycentric).
     #[inline]
     pub fn vertex_uvs(&self, i: usize) -> [Vec2; 3] {
         match &self.uvs {

@@ -3,7 +3,7 @@
 //! conservative error bound, and area / solid-angle (visible cone) sampling (pbrt-v4 §6.2.4).
 
 use crate::sampling::{SurfaceSample, area_sample_to_solid_angle, pdf_area_to_solid_angle};
-use glam::DVec3;
+use glam::{DVec3, Quat};
 use lightlab_core::{Frame, PI, Vec2, Vec3, gamma};
 use lightlab_samplers::warp;
 
@@ -12,6 +12,9 @@ use lightlab_samplers::warp;
 pub struct Sphere {
     pub center: Vec3,
     pub radius: f32,
+    /// The rotation from the sphere's own frame to world space. It orients only the surface
+    /// parameterisation (u, v) and ∂p/∂u — what textures and anisotropic roughness see.
+    pub orientation: Quat,
 }
 
 /// Surface attributes at a sphere hit.
@@ -24,6 +27,15 @@ pub(crate) struct SphereSurface {
 }
 
 impl Sphere {
+    /// A sphere whose own frame is the world's.
+    pub const fn new(center: Vec3, radius: f32) -> Sphere {
+        Sphere {
+            center,
+            radius,
+            orientation: Quat::IDENTITY,
+        }
+    }
+
     pub fn area(&self) -> f32 {
         4.0 * PI * self.radius * self.radius
     }
@@ -96,8 +108,9 @@ impl Sphere {
         let p_obj = (p64 * (r / p64.length())).as_vec3();
         let (p, p_error) = self.world_point(p_obj);
         let n = (p64 / p64.length()).as_vec3();
-        // Parameterisation of pbrt-v4 §6.2: u = φ / 2π, v = 1 − θ / π (v = 0 at −z).
-        let mut q = p_obj;
+        // Parameterisation in the sphere's own frame (Mitsuba 3's): u = φ / 2π, v = θ / π, so
+        // v = 0 at the +z pole, and ∂p/∂u = 2π·(−y, x, 0) (pbrt-v4 §6.2.4 with φ_max = 2π).
+        let mut q = self.orientation.inverse() * p_obj;
         if q.x == 0.0 && q.y == 0.0 {
             q.x = 1e-5 * self.radius;
         }
@@ -105,13 +118,13 @@ impl Sphere {
         if phi < 0.0 {
             phi += 2.0 * PI;
         }
-        let theta = (p_obj.z / self.radius).clamp(-1.0, 1.0).acos();
+        let theta = (q.z / self.radius).clamp(-1.0, 1.0).acos();
         let surface = SphereSurface {
             p,
             p_error,
             n,
-            dpdu: Vec3::new(-2.0 * PI * q.y, 2.0 * PI * q.x, 0.0),
-            uv: Vec2::new(phi / (2.0 * PI), 1.0 - theta / PI),
+            dpdu: self.orientation * Vec3::new(-2.0 * PI * q.y, 2.0 * PI * q.x, 0.0),
+            uv: Vec2::new(phi / (2.0 * PI), theta / PI),
         };
         Some((t as f32, surface))
     }
@@ -207,10 +220,7 @@ impl Sphere {
 mod tests {
     use super::*;
 
-    const UNIT: Sphere = Sphere {
-        center: Vec3::ZERO,
-        radius: 1.0,
-    };
+    const UNIT: Sphere = Sphere::new(Vec3::ZERO, 1.0);
 
     #[test]
     fn hits_from_outside_and_inside() {
@@ -239,7 +249,48 @@ mod tests {
             .hit_surface(Vec3::new(0.0, 0.0, -3.0), Vec3::Z, f32::INFINITY)
             .unwrap();
         assert!((s.n - Vec3::NEG_Z).length() < 1e-6);
-        assert!(s.uv.y.abs() < 1e-6);
+        assert!((s.uv.y - 1.0).abs() < 1e-6);
+    }
+
+    /// Mitsuba 3.9.1's sphere parameterisation, read off `ray_intersect` (benches/peers has the
+    /// probe's method): (o, d) → (u, v), ∂p/∂u; then a sphere rotated 90° about x.
+    #[test]
+    fn parameterisation_is_mitsubas() {
+        let cases = [
+            (
+                Vec3::new(3.0, 0.01, 0.3),
+                -Vec3::X,
+                Vec2::new(0.0017, 0.403),
+            ),
+            (
+                Vec3::new(0.01, 3.0, -0.3),
+                -Vec3::Y,
+                Vec2::new(0.2483, 0.597),
+            ),
+            (Vec3::new(-3.0, 0.01, 0.0), Vec3::X, Vec2::new(0.4984, 0.5)),
+        ];
+        for (o, d, uv) in cases {
+            let (_, s) = UNIT.hit_surface(o, d, f32::INFINITY).unwrap();
+            assert!((s.uv - uv).abs().max_element() < 1e-4, "{o}: {}", s.uv);
+        }
+        let (_, s) = UNIT
+            .hit_surface(Vec3::new(-3.0, 0.01, 0.0), Vec3::X, f32::INFINITY)
+            .unwrap();
+        assert!((s.dpdu - Vec3::new(-0.0628, -6.2829, 0.0)).length() < 1e-3);
+        let rotated = Sphere {
+            orientation: Quat::from_rotation_x(0.5 * PI),
+            ..UNIT
+        };
+        let (_, s) = rotated
+            .hit_surface(Vec3::new(0.0, 0.0, 3.0), -Vec3::Z, f32::INFINITY)
+            .unwrap();
+        assert!((s.uv - Vec2::new(0.25, 0.5)).abs().max_element() < 1e-4);
+        assert!((s.dpdu - Vec3::new(-2.0 * PI, 0.0, 0.0)).length() < 1e-4);
+        let (_, s) = rotated
+            .hit_surface(Vec3::new(3.0, 0.3, 0.01), -Vec3::X, f32::INFINITY)
+            .unwrap();
+        assert!((s.uv - Vec2::new(0.0017, 0.597)).abs().max_element() < 1e-4);
+        assert!((s.dpdu - Vec3::new(-0.0628, 0.0, 5.9934)).length() < 1e-3);
     }
 
     #[test]
@@ -255,10 +306,7 @@ mod tests {
 
     #[test]
     fn far_sphere_and_far_origin() {
-        let s = Sphere {
-            center: Vec3::splat(1e4),
-            radius: 1.0,
-        };
+        let s = Sphere::new(Vec3::splat(1e4), 1.0);
         let o = Vec3::new(1e4, 1e4, 1e4 - 1e6);
         let t = s.intersect(o, Vec3::Z, f32::INFINITY).unwrap();
         assert!((t - (1e6 - 1.0)).abs() < 0.1, "t = {t}");
@@ -275,10 +323,7 @@ mod tests {
     /// sphere: ∫ cos θ dω over the visible sphere = π. A cone around the centre would cover nothing.
     #[test]
     fn solid_angle_sampling_from_the_surface_sees_the_inside() {
-        let s = Sphere {
-            center: Vec3::new(0.3, -0.2, 0.1),
-            radius: 1.0,
-        };
+        let s = Sphere::new(Vec3::new(0.3, -0.2, 0.1), 1.0);
         for dir in [Vec3::X, Vec3::new(0.3, 0.4, -0.5).normalize()] {
             for nudge in [1.0f32 - 1e-6, 1.0, 1.0 + 1e-6] {
                 let ref_p = s.center + dir * nudge;

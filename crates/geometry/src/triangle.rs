@@ -155,11 +155,12 @@ pub(crate) fn dpdu(v: &[Vec3; 3], uv: &[Vec2; 3], ng: Vec3) -> Vec3 {
     lightlab_core::Frame::from_z(ng).s
 }
 
-/// The (u, v) pbrt assigns to a triangle without texture coordinates.
+/// The (u, v) of a triangle without texture coordinates: its barycentric coordinates (b₁, b₂), as
+/// in Mitsuba 3 (pbrt's (1, 1) for the third vertex gives the same ∂p/∂u).
 pub(crate) const DEFAULT_UV: [Vec2; 3] = [
     Vec2::new(0.0, 0.0),
     Vec2::new(1.0, 0.0),
-    Vec2::new(1.0, 1.0),
+    Vec2::new(0.0, 1.0),
 ];
 
 #[cfg(test)]

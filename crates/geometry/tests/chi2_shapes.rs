@@ -39,7 +39,7 @@ fn mesh_shape(positions: Vec<Vec3>, indices: Vec<[u32; 3]>) -> Shape {
 
 fn sphere_shape(center: Vec3, radius: f32) -> Shape {
     Shape {
-        geometry: Geometry::Sphere(Sphere { center, radius }),
+        geometry: Geometry::Sphere(Sphere::new(center, radius)),
         material: 0,
         light: 0,
     }

@@ -85,10 +85,10 @@ fn scene(seed: u64, scale: f32, offset: Vec3) -> Vec<Shape> {
     )));
 
     for _ in 0..20 {
-        shapes.push(shape(Geometry::Sphere(Sphere {
-            center: tf(vec(&mut rng, -1.0, 1.0)),
-            radius: scale * rng.random_range(0.05..0.3),
-        })));
+        shapes.push(shape(Geometry::Sphere(Sphere::new(
+            tf(vec(&mut rng, -1.0, 1.0)),
+            scale * rng.random_range(0.05..0.3),
+        ))));
     }
     shapes
 }
@@ -196,7 +196,7 @@ fn spawned_rays_leave_large_primitives_near_the_origin() {
         // A sphere of radius ~10⁴ whose surface crosses the unit box.
         let center = 1e4 * dir(&mut rng);
         let radius = (center - vec(&mut rng, -1.0, 1.0)).length();
-        shapes.push(shape(Geometry::Sphere(Sphere { center, radius })));
+        shapes.push(shape(Geometry::Sphere(Sphere::new(center, radius))));
     }
     let accel = Accel::new(shapes);
     let mut spawned = 0;
@@ -227,10 +227,10 @@ fn segments_between_facing_surfaces_are_never_occluded() {
         let shapes = vec![
             quad(-1.0, 0.1),
             quad(1.0, -0.2),
-            shape(Geometry::Sphere(Sphere {
-                center: tf(Vec3::new(3.0, 0.0, 0.0)),
-                radius: scale,
-            })),
+            shape(Geometry::Sphere(Sphere::new(
+                tf(Vec3::new(3.0, 0.0, 0.0)),
+                scale,
+            ))),
         ];
         let accel = Accel::new(shapes);
         let mut rng = Pcg64::seed_from_u64(20 + v as u64);

@@ -46,9 +46,11 @@ mod rough_conductor;
 mod rough_dielectric;
 mod specular;
 mod surface;
+mod texture;
 
 pub use microfacet::{ALPHA_MIN, Distribution};
 pub use surface::{Material, SurfaceBsdf};
+pub use texture::{Bitmap, Filter, Pattern, Texture, TextureSlots, Wrap};
 
 use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
 use phong::Phong;

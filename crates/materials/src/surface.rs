@@ -2,7 +2,7 @@
 //! directions to and from the shading frame and rejects bad configurations once, so no `Bsdf`
 //! variant repeats it.
 
-use crate::{Bsdf, BsdfEval, BsdfSample};
+use crate::{Bsdf, BsdfEval, BsdfSample, Texture, TextureSlots};
 use lightlab_core::{Frame, TransportMode, Vec2, Vec3};
 
 /// A [`Bsdf`] placed at a surface point with shading frame `frame` (`frame.n` = shading normal ns)
@@ -37,20 +37,49 @@ pub struct SurfaceBsdf {
     pub one_sided: bool,
 }
 
-/// A scene material: its BSDF, and whether its back side is black (see [`SurfaceBsdf`]).
+/// A scene material: its BSDF, whether its back side is black (see [`SurfaceBsdf`]), and which of
+/// the BSDF's colours textures replace.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
     pub bsdf: Bsdf,
     pub one_sided: bool,
+    pub textures: TextureSlots,
 }
 
 impl Material {
-    /// A material that scatters on both sides (every RON material).
+    /// A material that scatters on both sides, without textures.
     pub fn two_sided(bsdf: Bsdf) -> Material {
         Material {
             bsdf,
             one_sided: false,
+            textures: TextureSlots::NONE,
         }
+    }
+
+    /// The BSDF at a surface point with parameters `uv`: the material's, with each textured colour
+    /// looked up in `textures` (the scene's list the slots index).
+    #[inline]
+    pub fn bsdf_at(&self, uv: Vec2, textures: &[Texture]) -> Bsdf {
+        if self.textures.is_empty() {
+            return self.bsdf;
+        }
+        let lookup = |slot: Option<u32>| slot.map(|i| textures[i as usize].eval(uv));
+        let (reflectance, specular) = (
+            lookup(self.textures.reflectance),
+            lookup(self.textures.specular),
+        );
+        let mut bsdf = self.bsdf;
+        match &mut bsdf {
+            Bsdf::Diffuse { albedo: c } | Bsdf::Mirror { reflectance: c } => {
+                *c = reflectance.unwrap_or(*c);
+            }
+            Bsdf::Phong { kd, ks, .. } => {
+                *kd = reflectance.unwrap_or(*kd);
+                *ks = specular.unwrap_or(*ks);
+            }
+            _ => {}
+        }
+        bsdf
     }
 }
 
@@ -67,12 +96,13 @@ impl SurfaceBsdf {
         }
     }
 
-    /// The surface of `material`: [`SurfaceBsdf::new`] with the material's sidedness.
+    /// The surface of `material`, whose BSDF at this point is `bsdf` (see [`Material::bsdf_at`]):
+    /// [`SurfaceBsdf::new`] with the material's sidedness.
     #[inline]
-    pub fn of(ns: Vec3, dpdu: Vec3, ng: Vec3, material: Material) -> Self {
+    pub fn of(ns: Vec3, dpdu: Vec3, ng: Vec3, material: &Material, bsdf: Bsdf) -> Self {
         SurfaceBsdf {
             one_sided: material.one_sided,
-            ..SurfaceBsdf::new(ns, dpdu, ng, material.bsdf)
+            ..SurfaceBsdf::new(ns, dpdu, ng, bsdf)
         }
     }
 

@@ -21,6 +21,11 @@ pub struct SceneDesc {
     /// Default: none.
     #[serde(default, deserialize_with = "unique_map")]
     pub materials: Vec<(String, MaterialDesc)>,
+    /// Named textures that materials' colours can name instead of a constant,
+    /// `{"tiles": Checkerboard(color0: (0.1, 0.1, 0.1), color1: (0.8, 0.8, 0.8), scale: (8, 8))}`.
+    /// Default: none.
+    #[serde(default, deserialize_with = "unique_map")]
+    pub textures: Vec<(String, TextureDesc)>,
     /// Surfaces. Default: none.
     #[serde(default)]
     pub shapes: Vec<ShapeDesc>,
@@ -136,8 +141,9 @@ impl TryFrom<CameraRaw> for CameraDesc {
     }
 }
 
-/// A surface material. All parameters are constant over the surface.
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+/// A surface material. Colours marked [`ColourDesc`] can vary over the surface with a texture; all
+/// other parameters are constant.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, try_from = "MaterialRaw")]
 pub struct MaterialDesc {
     pub raw: MaterialRaw,
@@ -146,15 +152,15 @@ pub struct MaterialDesc {
     pub one_sided: bool,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, rename = "Material")]
 pub enum MaterialRaw {
     /// Lambertian reflection, `albedo` per channel in [0, 1]. Two-sided.
-    Diffuse { albedo: Rgb },
+    Diffuse { albedo: ColourDesc },
     /// Perfect specular reflection scaled by `reflectance` in [0, 1]. Default reflectance (1, 1, 1).
     Mirror {
         #[serde(default = "white")]
-        reflectance: Rgb,
+        reflectance: ColourDesc,
     },
     /// Smooth metal: specular reflection weighted by the conductor Fresnel reflectance for the
     /// complex index of refraction `eta` + i·`k` per channel (eta ≥ 0, k ≥ 0, not both 0).
@@ -193,7 +199,176 @@ pub enum MaterialRaw {
     },
     /// Modified Phong (Lafortune and Willems 1994): diffuse `kd` plus a normalised cosⁿ lobe `ks` around
     /// the mirror direction, `exponent` n ≥ 0. Energy conservation requires kd + ks ≤ 1 per channel.
-    Phong { kd: Rgb, ks: Rgb, exponent: f32 },
+    Phong {
+        kd: ColourDesc,
+        ks: ColourDesc,
+        exponent: f32,
+    },
+}
+
+/// A colour parameter: a constant `(r, g, b)`, or the name of a texture in the scene's `textures`
+/// (`"tiles"`) whose value at each surface point replaces it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ColourDesc {
+    Constant(Rgb),
+    Texture(String),
+}
+
+impl ColourDesc {
+    /// The constant, or `None` for a texture.
+    pub fn constant(&self) -> Option<Rgb> {
+        match self {
+            ColourDesc::Constant(c) => Some(*c),
+            ColourDesc::Texture(_) => None,
+        }
+    }
+}
+
+impl From<Rgb> for ColourDesc {
+    fn from(c: Rgb) -> Self {
+        ColourDesc::Constant(c)
+    }
+}
+
+impl<'de> Deserialize<'de> for ColourDesc {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> de::Visitor<'de> for V {
+            type Value = ColourDesc;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a colour (r, g, b) or the name of a texture (\"name\")")
+            }
+            fn visit_str<E: de::Error>(self, name: &str) -> Result<ColourDesc, E> {
+                Ok(ColourDesc::Texture(name.to_string()))
+            }
+            fn visit_seq<A: de::SeqAccess<'de>>(self, seq: A) -> Result<ColourDesc, A::Error> {
+                Rgb::deserialize(de::value::SeqAccessDeserializer::new(seq))
+                    .map(ColourDesc::Constant)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A texture: a bitmap image or a checkerboard, placed on a surface's (u, v) by
+/// (u′, v′) = (u·scale.0 + offset.0, v·scale.1 + offset.1), or by a general affine map given as
+/// `to_uv: [[a, b, c], [d, e, f]]`, u′ = a·u + b·v + c, v′ = d·u + e·v + f (instead of scale and
+/// offset; Mitsuba's `to_uv`). Image row 0 (the top) lies at v′ = 0
+/// and the image covers [0, 1)² (Mitsuba 3's conventions). Surfaces' (u, v): meshes' own texture
+/// coordinates (OBJ files' v flipped, as Mitsuba does), quads (0, 0) at `corner` to (1, 1) at the
+/// opposite corner with u along `edge1`, each cuboid face likewise, spheres
+/// (φ / 2π, θ / π) about their own z axis (θ = 0 at +z).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Texture")]
+pub enum TextureDesc {
+    /// An image file, path relative to the scene file: PNG or JPEG (8 or 16 bits, sRGB-encoded
+    /// unless `raw`), OpenEXR or Radiance HDR (linear). `filter` `Bilinear` (default) or
+    /// `Nearest`; `wrap` `Repeat` (default), `Mirror` or `Clamp`; `raw: true` reads PNG/JPEG values
+    /// as linear (for data such as roughness maps). The alpha channel is ignored.
+    Bitmap {
+        file: String,
+        #[serde(default)]
+        filter: FilterDesc,
+        #[serde(default)]
+        wrap: WrapDesc,
+        #[serde(default)]
+        raw: bool,
+        #[serde(default = "unit_uv")]
+        scale: (f32, f32),
+        #[serde(default)]
+        offset: (f32, f32),
+        #[serde(default)]
+        to_uv: Option<[[f32; 3]; 2]>,
+    },
+    /// `color0` and `color1` (each channel ≥ 0) in a 2 × 2 board per unit square of (u′, v′):
+    /// `color0` where ⌊2u′⌋ + ⌊2v′⌋ is even. Defaults 0.4 and 0.2 grey (Mitsuba's).
+    Checkerboard {
+        #[serde(default = "grey40")]
+        color0: Rgb,
+        #[serde(default = "grey20")]
+        color1: Rgb,
+        #[serde(default = "unit_uv")]
+        scale: (f32, f32),
+        #[serde(default)]
+        offset: (f32, f32),
+        #[serde(default)]
+        to_uv: Option<[[f32; 3]; 2]>,
+    },
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename = "Filter")]
+pub enum FilterDesc {
+    Nearest,
+    #[default]
+    Bilinear,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename = "Wrap")]
+pub enum WrapDesc {
+    #[default]
+    Repeat,
+    Mirror,
+    Clamp,
+}
+
+fn unit_uv() -> (f32, f32) {
+    (1.0, 1.0)
+}
+fn grey40() -> Rgb {
+    Rgb::splat(0.4)
+}
+fn grey20() -> Rgb {
+    Rgb::splat(0.2)
+}
+
+/// A texture's scale, offset and optional `to_uv` matrix rows.
+pub type Placement = ((f32, f32), (f32, f32), Option<[[f32; 3]; 2]>);
+
+impl TextureDesc {
+    /// Checks the values that need no file: finite placement, non-negative checker colours.
+    pub fn check(&self) -> Result<(), String> {
+        match self {
+            TextureDesc::Bitmap { file, .. } if file.is_empty() => {
+                return Err("Bitmap file name is empty".into());
+            }
+            TextureDesc::Checkerboard { color0, color1, .. } => {
+                non_negative_rgb("Checkerboard color0", *color0)?;
+                non_negative_rgb("Checkerboard color1", *color1)?;
+            }
+            _ => {}
+        }
+        let (scale, offset, to_uv) = self.placement();
+        if to_uv.is_some() && (scale != (1.0, 1.0) || offset != (0.0, 0.0)) {
+            return Err("give a texture either scale/offset or to_uv, not both".into());
+        }
+        let numbers = [scale.0, scale.1, offset.0, offset.1]
+            .into_iter()
+            .chain(to_uv.into_iter().flatten().flatten());
+        if !numbers.into_iter().all(f32::is_finite) {
+            return Err("texture scale, offset and to_uv must be finite".into());
+        }
+        Ok(())
+    }
+
+    /// The texture's (scale, offset, to_uv).
+    pub fn placement(&self) -> Placement {
+        match self {
+            TextureDesc::Bitmap {
+                scale,
+                offset,
+                to_uv,
+                ..
+            }
+            | TextureDesc::Checkerboard {
+                scale,
+                offset,
+                to_uv,
+                ..
+            } => (*scale, *offset, *to_uv),
+        }
+    }
 }
 
 /// The distribution of microfacet normals: `Ggx` (Trowbridge–Reitz, long tails) or `Beckmann`
@@ -213,8 +388,8 @@ pub enum Roughness {
     Anisotropic(f32, f32),
 }
 
-fn white() -> Rgb {
-    Rgb::WHITE
+fn white() -> ColourDesc {
+    ColourDesc::Constant(Rgb::WHITE)
 }
 fn glass_ior() -> f32 {
     1.5
@@ -223,22 +398,22 @@ fn glass_ior() -> f32 {
 impl TryFrom<MaterialRaw> for MaterialDesc {
     type Error = String;
     fn try_from(m: MaterialRaw) -> Result<Self, String> {
-        match m {
-            MaterialRaw::Diffuse { albedo } => unit_rgb("Diffuse albedo", albedo)?,
-            MaterialRaw::Mirror { reflectance } => unit_rgb("Mirror reflectance", reflectance)?,
-            MaterialRaw::Dielectric { ior } => positive("Dielectric ior", ior)?,
-            MaterialRaw::ThinDielectric { ior } => positive("ThinDielectric ior", ior)?,
-            MaterialRaw::Conductor { eta, k } => check_complex_ior("Conductor", eta, k)?,
+        match &m {
+            MaterialRaw::Diffuse { albedo } => unit_colour("Diffuse albedo", albedo)?,
+            MaterialRaw::Mirror { reflectance } => unit_colour("Mirror reflectance", reflectance)?,
+            MaterialRaw::Dielectric { ior } => positive("Dielectric ior", *ior)?,
+            MaterialRaw::ThinDielectric { ior } => positive("ThinDielectric ior", *ior)?,
+            MaterialRaw::Conductor { eta, k } => check_complex_ior("Conductor", *eta, *k)?,
             MaterialRaw::RoughConductor {
                 roughness, eta, k, ..
             } => {
-                check_roughness(roughness)?;
-                check_complex_ior("RoughConductor", eta, k)?;
+                check_roughness(*roughness)?;
+                check_complex_ior("RoughConductor", *eta, *k)?;
             }
             MaterialRaw::RoughDielectric { roughness, ior, .. } => {
-                check_roughness(roughness)?;
-                positive("RoughDielectric ior", ior)?;
-                if ior == 1.0 {
+                check_roughness(*roughness)?;
+                positive("RoughDielectric ior", *ior)?;
+                if *ior == 1.0 {
                     return Err(
                         "RoughDielectric ior must differ from 1: an index-matched rough interface \
                                 has no microfacet refraction (GGX transmission degenerates); \
@@ -248,16 +423,19 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
                 }
             }
             MaterialRaw::Phong { kd, ks, exponent } => {
-                unit_rgb("Phong kd", kd)?;
-                unit_rgb("Phong ks", ks)?;
-                if (kd + ks).max_component() > 1.0 {
+                unit_colour("Phong kd", kd)?;
+                unit_colour("Phong ks", ks)?;
+                // With textures, the loader checks the sum against their largest values.
+                if let (Some(kd), Some(ks)) = (kd.constant(), ks.constant())
+                    && (kd + ks).max_component() > 1.0
+                {
                     return Err(format!(
                         "Phong kd + ks must be ≤ 1 per channel for energy conservation, got kd {} + ks {}",
                         fmt_rgb(kd),
                         fmt_rgb(ks)
                     ));
                 }
-                if !(exponent >= 0.0 && exponent.is_finite()) {
+                if !(*exponent >= 0.0 && exponent.is_finite()) {
                     return Err(format!("Phong exponent must be ≥ 0, got {exponent}"));
                 }
             }
@@ -354,15 +532,21 @@ pub struct GeometryDesc(pub GeometryRaw);
 #[serde(deny_unknown_fields, rename = "Geometry")]
 pub enum GeometryRaw {
     /// Inline triangle mesh: `positions`, `indices` as triples (counter-clockwise = front, the side the
-    /// normal cross(p1 − p0, p2 − p0) points to), optional per-vertex shading `normals`.
+    /// normal cross(p1 − p0, p2 − p0) points to), optional per-vertex shading `normals` and texture
+    /// coordinates `uvs` (without them each triangle's are (0, 0), (1, 0), (0, 1): barycentric, as in
+    /// Mitsuba).
     Mesh {
         positions: Vec<DVec3>,
         indices: Vec<(u32, u32, u32)>,
         #[serde(default)]
         normals: Option<Vec<Vec3>>,
+        #[serde(default)]
+        uvs: Option<Vec<glam::Vec2>>,
     },
     /// Wavefront OBJ file, path relative to the scene file; triangulated on load. `normals`: use the
-    /// file's vertex normals as shading normals if it has them. Default true.
+    /// file's vertex normals as shading normals if it has them. Default true. The file's texture
+    /// coordinates, if every vertex has one, are the mesh's (u, v) with v flipped (OBJ's v points
+    /// up the image, Lightlab's down, as in Mitsuba).
     Obj {
         file: String,
         #[serde(default = "yes")]
@@ -432,7 +616,20 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
                 positions,
                 indices,
                 normals,
+                uvs,
             } => {
+                if let Some(uvs) = uvs {
+                    if uvs.len() != positions.len() {
+                        return Err(format!(
+                            "Mesh has {} uvs for {} positions",
+                            uvs.len(),
+                            positions.len()
+                        ));
+                    }
+                    if let Some(i) = uvs.iter().position(|uv| !uv.is_finite()) {
+                        return Err(format!("Mesh uv {i} is not finite"));
+                    }
+                }
                 for (i, p) in positions.iter().enumerate() {
                     finite_dvec(&format!("Mesh position {i}"), *p)?;
                 }
@@ -763,6 +960,15 @@ fn positive(what: &str, x: f32) -> Result<(), String> {
     }
 }
 
+/// A constant colour in [0, 1]; a texture's values are checked when the scene is built.
+fn unit_colour(what: &str, c: &ColourDesc) -> Result<(), String> {
+    match c {
+        ColourDesc::Constant(c) => unit_rgb(what, *c),
+        ColourDesc::Texture(name) if name.is_empty() => Err(format!("{what}: empty texture name")),
+        ColourDesc::Texture(_) => Ok(()),
+    }
+}
+
 fn unit_rgb(what: &str, c: Rgb) -> Result<(), String> {
     if c.to_array().iter().all(|x| (0.0..=1.0).contains(x)) {
         Ok(())
@@ -786,25 +992,25 @@ fn non_negative_rgb(what: &str, c: Rgb) -> Result<(), String> {
 }
 
 /// Reads a RON map into an ordered list, rejecting duplicate keys (a map would silently keep the last).
-fn unique_map<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, MaterialDesc)>, D::Error> {
-    struct V;
-    impl<'de> de::Visitor<'de> for V {
-        type Value = Vec<(String, MaterialDesc)>;
+fn unique_map<'de, D: Deserializer<'de>, T: Deserialize<'de>>(
+    d: D,
+) -> Result<Vec<(String, T)>, D::Error> {
+    struct V<T>(std::marker::PhantomData<T>);
+    impl<'de, T: Deserialize<'de>> de::Visitor<'de> for V<T> {
+        type Value = Vec<(String, T)>;
         fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-            f.write_str("a map from material names to materials")
+            f.write_str("a map from names to definitions")
         }
         fn visit_map<A: de::MapAccess<'de>>(self, mut m: A) -> Result<Self::Value, A::Error> {
-            let mut out: Vec<(String, MaterialDesc)> = Vec::new();
-            while let Some((k, v)) = m.next_entry::<String, MaterialDesc>()? {
+            let mut out: Vec<(String, T)> = Vec::new();
+            while let Some((k, v)) = m.next_entry::<String, T>()? {
                 if out.iter().any(|(n, _)| *n == k) {
-                    return Err(de::Error::custom(format!(
-                        "material \"{k}\" is defined twice"
-                    )));
+                    return Err(de::Error::custom(format!("\"{k}\" is defined twice")));
                 }
                 out.push((k, v));
             }
             Ok(out)
         }
     }
-    d.deserialize_map(V)
+    d.deserialize_map(V(std::marker::PhantomData))
 }

@@ -3,22 +3,58 @@
 use lightlab_core::Rgb;
 use std::path::Path;
 
-/// The first RGB(A) layer of an OpenEXR file: width, height and linear texels row by row from the
-/// top.
-pub(crate) fn read_rgb_exr(path: &Path) -> Result<(usize, usize, Vec<Rgb>), String> {
-    use exr::prelude::*;
-    match path.extension().and_then(|e| e.to_str()) {
-        Some(e) if e.eq_ignore_ascii_case("exr") => {}
-        _ => {
-            return Err(format!(
-                "{}: environment maps are read from OpenEXR files (.exr); convert it first",
-                path.display()
-            ));
-        }
-    }
+/// An image as linear RGB: width, height and texels row by row from the top.
+pub(crate) type RgbImage = (usize, usize, Vec<Rgb>);
+
+/// Reads an image file as linear RGB (alpha ignored, grey replicated): OpenEXR and Radiance HDR
+/// as stored; PNG and JPEG (8 or 16 bits per channel) decoded from sRGB (IEC 61966-2-1) unless
+/// `raw`, when their values scaled to [0, 1] are taken as they are. Mitsuba 3 reads bitmaps the
+/// same way.
+pub(crate) fn read_rgb_image(path: &Path, raw: bool) -> Result<RgbImage, String> {
     if !path.is_file() {
         return Err(format!("image file {} does not exist", path.display()));
     }
+    let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if extension.eq_ignore_ascii_case("exr") {
+        return read_rgb_exr(path);
+    }
+    let image = image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?
+        .decode()
+        .map_err(|e| {
+            format!(
+                "cannot read {} (PNG, JPEG, OpenEXR and Radiance HDR are supported): {e}",
+                path.display()
+            )
+        })?;
+    let linear = matches!(
+        image,
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
+    ) || raw;
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    let decode = |c: f32| if linear { c } else { srgb_to_linear(c) };
+    let texels = image
+        .to_rgb32f()
+        .pixels()
+        .map(|p| Rgb::new(decode(p[0]), decode(p[1]), decode(p[2])))
+        .collect();
+    Ok((w, h, texels))
+}
+
+/// The sRGB transfer function's inverse (IEC 61966-2-1): an encoded value in [0, 1] to linear.
+pub(crate) fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The first RGB(A) layer of an OpenEXR file: width, height and linear texels row by row from the
+/// top.
+fn read_rgb_exr(path: &Path) -> Result<RgbImage, String> {
+    use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
         path,
         |resolution, _| {

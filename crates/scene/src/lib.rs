@@ -16,6 +16,7 @@ mod load;
 pub mod mitsuba;
 pub mod overrides;
 mod scene;
+mod textures;
 
 pub use camera::{Camera, CameraSample};
 pub use envmap::EnvMap;

@@ -9,8 +9,8 @@
 //! the same reason). `Scene::origin` records where that centre is in the file's coordinates.
 
 use crate::desc::{
-    GeometryDesc, GeometryRaw, LightDesc, LightRaw, MaterialDesc, MaterialRaw, Microfacets,
-    RotationDesc, Roughness, SceneDesc, TransformDesc,
+    ColourDesc, GeometryDesc, GeometryRaw, LightDesc, LightRaw, MaterialDesc, MaterialRaw,
+    Microfacets, RotationDesc, Roughness, SceneDesc, TransformDesc,
 };
 use crate::{Camera, EnvMap, Light, Scene, SceneError};
 use glam::{DMat3, DQuat, DVec3, Mat3, Vec2, Vec3};
@@ -80,16 +80,27 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
             "the scene is empty: it has no shapes and no lights".into(),
         ));
     }
+    let base = path.parent().unwrap_or(Path::new("."));
+    let texture_names: Vec<&str> = desc.textures.iter().map(|(n, _)| n.as_str()).collect();
+    let textures = desc
+        .textures
+        .iter()
+        .map(|(name, t)| {
+            crate::textures::texture(t, base).map_err(|(needle, m)| {
+                SceneError::at(path, text, &needle, format!("texture \"{name}\": {m}"))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let material_names: Vec<String> = desc.materials.iter().map(|(n, _)| n.clone()).collect();
-    let materials: Vec<Material> = desc
+    let materials = desc
         .materials
         .iter()
-        .map(|(_, m)| Material {
-            bsdf: bsdf(m),
-            one_sided: m.one_sided,
+        .map(|(name, m)| {
+            crate::textures::material(m, &texture_names, &textures).map_err(|(needle, msg)| {
+                SceneError::at(path, text, &needle, format!("material \"{name}\": {msg}"))
+            })
         })
-        .collect();
-    let base = path.parent().unwrap_or(Path::new("."));
+        .collect::<Result<Vec<Material>, _>>()?;
 
     // World-space geometry in f64, then the scene's centre.
     let mut world = Vec::with_capacity(desc.shapes.len());
@@ -196,6 +207,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         Accel::new(shapes),
         materials,
         material_names,
+        textures,
         lights,
     );
     scene.origin = origin;
@@ -254,7 +266,7 @@ impl Features {
                     }
                 }
             }
-            WorldGeometry::Sphere { center, radius } => {
+            WorldGeometry::Sphere { center, radius, .. } => {
                 let r = *radius as f64;
                 self.largest = self.largest.max((*center - origin).abs().max_element() + r);
                 self.smallest = self.smallest.min(r);
@@ -280,14 +292,19 @@ impl Features {
     }
 }
 
-fn bsdf(m: &MaterialDesc) -> Bsdf {
+/// The BSDF of `m` with its constant colours; a textured colour is black here (the texture
+/// replaces it at every hit: [`Material::bsdf_at`]).
+pub(crate) fn bsdf(m: &MaterialDesc) -> Bsdf {
+    let c = |c: &ColourDesc| c.constant().unwrap_or(Rgb::BLACK);
     let alpha = |r: Roughness| match r {
         Roughness::Isotropic(a) => Vec2::splat(a),
         Roughness::Anisotropic(ax, ay) => Vec2::new(ax, ay),
     };
     match m.raw {
-        MaterialRaw::Diffuse { albedo } => Bsdf::Diffuse { albedo },
-        MaterialRaw::Mirror { reflectance } => Bsdf::Mirror { reflectance },
+        MaterialRaw::Diffuse { ref albedo } => Bsdf::Diffuse { albedo: c(albedo) },
+        MaterialRaw::Mirror { ref reflectance } => Bsdf::Mirror {
+            reflectance: c(reflectance),
+        },
         MaterialRaw::Conductor { eta, k } => Bsdf::Conductor { eta, k },
         MaterialRaw::Dielectric { ior } => Bsdf::Dielectric { eta: ior },
         MaterialRaw::ThinDielectric { ior } => Bsdf::ThinDielectric { eta: ior },
@@ -311,7 +328,15 @@ fn bsdf(m: &MaterialDesc) -> Bsdf {
             eta: ior,
             distribution: microfacets(distribution),
         },
-        MaterialRaw::Phong { kd, ks, exponent } => Bsdf::Phong { kd, ks, exponent },
+        MaterialRaw::Phong {
+            ref kd,
+            ref ks,
+            exponent,
+        } => Bsdf::Phong {
+            kd: c(kd),
+            ks: c(ks),
+            exponent,
+        },
     }
 }
 
@@ -384,7 +409,7 @@ fn environment_map(
     };
     let needle = format!("\"{file}\"");
     let (w, h, texels) =
-        crate::image::read_rgb_exr(&base.join(file)).map_err(|m| (needle.clone(), m))?;
+        crate::image::read_rgb_image(&base.join(file), false).map_err(|m| (needle.clone(), m))?;
     let rotation = rotate.iter().fold(DQuat::IDENTITY, |q, r| {
         DQuat::from_axis_angle(
             r.axis.as_dvec3().normalize(),
@@ -406,6 +431,7 @@ struct Affine {
     linear: DMat3,
     normal: Mat3,
     translate: DVec3,
+    rotation: DQuat,
 }
 
 impl Affine {
@@ -421,6 +447,7 @@ impl Affine {
             linear,
             normal: linear.inverse().transpose().as_mat3(),
             translate: t.translate,
+            rotation,
         }
     }
     fn point(&self, p: DVec3) -> DVec3 {
@@ -441,11 +468,13 @@ enum WorldGeometry {
     Mesh {
         positions: Vec<DVec3>,
         normals: Option<Vec<Vec3>>,
+        uvs: Option<Vec<Vec2>>,
         indices: Vec<[u32; 3]>,
     },
     Sphere {
         center: DVec3,
         radius: f32,
+        orientation: DQuat,
     },
 }
 
@@ -453,7 +482,7 @@ impl WorldGeometry {
     fn extend(&self, bounds: &mut Bounds) {
         match self {
             WorldGeometry::Mesh { positions, .. } => positions.iter().for_each(|&p| bounds.add(p)),
-            WorldGeometry::Sphere { center, radius } => {
+            WorldGeometry::Sphere { center, radius, .. } => {
                 bounds.add(*center - *radius as f64);
                 bounds.add(*center + *radius as f64);
             }
@@ -466,6 +495,7 @@ impl WorldGeometry {
             WorldGeometry::Mesh {
                 positions,
                 normals,
+                uvs,
                 indices,
             } => TriangleMesh::new(
                 positions
@@ -473,14 +503,19 @@ impl WorldGeometry {
                     .map(|p| (p - origin).as_vec3())
                     .collect(),
                 normals,
-                None,
+                uvs,
                 indices,
             )
             .map(Geometry::Mesh)
             .map_err(|e| e.to_string()),
-            WorldGeometry::Sphere { center, radius } => Ok(Geometry::Sphere(Sphere {
+            WorldGeometry::Sphere {
+                center,
+                radius,
+                orientation,
+            } => Ok(Geometry::Sphere(Sphere {
                 center: (center - origin).as_vec3(),
                 radius,
+                orientation: orientation.as_quat(),
             })),
         }
     }
@@ -493,11 +528,15 @@ fn geometry(
     base: &Path,
 ) -> Result<WorldGeometry, (String, String)> {
     let xf = Affine::new(t);
-    let mesh = |positions: Vec<DVec3>, indices: Vec<[u32; 3]>, normals: Option<Vec<Vec3>>| {
+    let mesh = |positions: Vec<DVec3>,
+                indices: Vec<[u32; 3]>,
+                normals: Option<Vec<Vec3>>,
+                uvs: Option<Vec<Vec2>>| {
         let flip = xf.flips();
         WorldGeometry::Mesh {
             positions: positions.into_iter().map(|p| xf.point(p)).collect(),
             normals: normals.map(|ns| ns.into_iter().map(|n| xf.normal(n)).collect()),
+            uvs,
             indices: indices
                 .into_iter()
                 .map(|[a, b, c]| if flip { [a, c, b] } else { [a, b, c] })
@@ -509,15 +548,17 @@ fn geometry(
             positions,
             indices,
             normals,
+            uvs,
         } => mesh(
             positions.clone(),
             indices.iter().map(|&(a, b, c)| [a, b, c]).collect(),
             normals.clone(),
+            uvs.clone(),
         ),
         GeometryRaw::Obj { file, normals } => {
-            let (positions, indices, ns) =
-                load_obj(&base.join(file), *normals).map_err(|m| (format!("\"{file}\""), m))?;
-            mesh(positions, indices, ns)
+            let m = load_obj(&base.join(file), *normals, true)
+                .map_err(|m| (format!("\"{file}\""), m))?;
+            mesh(m.positions, m.indices, m.normals, m.uvs)
         }
         GeometryRaw::Quad {
             corner,
@@ -531,6 +572,7 @@ fn geometry(
             let h = h.as_dvec3();
             let mut positions = Vec::with_capacity(24);
             let mut indices = Vec::with_capacity(12);
+            let mut uvs = Vec::with_capacity(24);
             for a in 0..3 {
                 let (b, c) = ((a + 1) % 3, (a + 2) % 3);
                 let axis = |i: usize| DVec3::AXES[i] * h[i];
@@ -545,31 +587,51 @@ fn geometry(
                     let k = positions.len() as u32;
                     positions.extend([corner, corner + e1, corner + e1 + e2, corner + e2]);
                     indices.extend([[k, k + 1, k + 2], [k, k + 2, k + 3]]);
+                    uvs.extend(QUAD_UVS);
                 }
             }
-            mesh(positions, indices, None)
+            mesh(positions, indices, None, Some(uvs))
         }
         GeometryRaw::Sphere { center, radius } => WorldGeometry::Sphere {
             center: xf.point(*center),
             radius: radius * t.scale.x.abs(),
+            orientation: xf.rotation,
         },
     })
 }
 
-type MeshBuilder<'a> = &'a dyn Fn(Vec<DVec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>) -> WorldGeometry;
+type MeshBuilder<'a> =
+    &'a dyn Fn(Vec<DVec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>, Option<Vec<Vec2>>) -> WorldGeometry;
+
+/// (u, v) of a parallelogram's corners in boundary order from `corner`: u along the first edge.
+const QUAD_UVS: [Vec2; 4] = [
+    Vec2::new(0.0, 0.0),
+    Vec2::new(1.0, 0.0),
+    Vec2::new(1.0, 1.0),
+    Vec2::new(0.0, 1.0),
+];
 
 fn quad_mesh(corner: DVec3, e1: DVec3, e2: DVec3, mesh: MeshBuilder) -> WorldGeometry {
     mesh(
         vec![corner, corner + e1, corner + e1 + e2, corner + e2],
         vec![[0, 1, 2], [0, 2, 3]],
         None,
+        Some(QUAD_UVS.to_vec()),
     )
 }
 
-type ObjMesh = (Vec<DVec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>);
+/// A mesh file's triangles, with the file's vertex normals and texture coordinates when every
+/// vertex has them.
+pub(crate) struct MeshFile {
+    pub positions: Vec<DVec3>,
+    pub indices: Vec<[u32; 3]>,
+    pub normals: Option<Vec<Vec3>>,
+    pub uvs: Option<Vec<Vec2>>,
+}
 
-/// Reads every object of an OBJ file into one triangle mesh.
-pub(crate) fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String> {
+/// Reads every object of an OBJ file into one triangle mesh; `flip_v` turns the file's texture
+/// coordinates (v up the image) into (u, 1 − v) (v down the image, Lightlab's and Mitsuba's).
+pub(crate) fn load_obj(file: &Path, use_normals: bool, flip_v: bool) -> Result<MeshFile, String> {
     if file.is_dir() {
         return Err(format!(
             "{} is a directory, not a mesh file (name an .obj file in it)",
@@ -585,7 +647,9 @@ pub(crate) fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String
     let mut positions = Vec::new();
     let mut indices = Vec::new();
     let mut normals = Vec::new();
+    let mut uvs = Vec::new();
     let mut all_have_normals = use_normals;
+    let mut all_have_uvs = true;
     for m in &models {
         let base = positions.len() as u32;
         let mesh = &m.mesh;
@@ -607,6 +671,14 @@ pub(crate) fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String
             );
         } else {
             all_have_normals = false;
+        }
+        if mesh.texcoords.len() / 2 == mesh.positions.len() / 3 {
+            uvs.extend(mesh.texcoords.chunks_exact(2).map(|t| {
+                let v = if flip_v { 1.0 - t[1] } else { t[1] };
+                Vec2::new(t[0] as f32, v as f32)
+            }));
+        } else {
+            all_have_uvs = false;
         }
     }
     if indices.is_empty() {
@@ -634,7 +706,15 @@ pub(crate) fn load_obj(file: &Path, use_normals: bool) -> Result<ObjMesh, String
     let normals = all_have_normals
         .then_some(normals)
         .filter(|ns| ns.iter().all(|n| n.is_finite() && n.length_squared() > 0.0));
-    Ok((positions, indices, normals))
+    let uvs = all_have_uvs
+        .then_some(uvs)
+        .filter(|uvs| uvs.iter().all(|uv| uv.is_finite()));
+    Ok(MeshFile {
+        positions,
+        indices,
+        normals,
+        uvs,
+    })
 }
 
 /// Reads an OBJ file's vertex and face lines the way the loader will, so that a malformed line is

@@ -4,7 +4,7 @@ use crate::{Camera, Light};
 use glam::Vec3;
 use lightlab_core::{Ray, Rgb};
 use lightlab_geometry::{Accel, Hit, Shape};
-use lightlab_materials::Material;
+use lightlab_materials::{Material, Texture};
 use lightlab_samplers::Distribution1D;
 
 pub struct Scene {
@@ -13,6 +13,8 @@ pub struct Scene {
     /// Material id `i` (the `material` of a [`Hit`]): its BSDF and sidedness.
     pub materials: Vec<Material>,
     pub material_names: Vec<String>,
+    /// The textures materials' [`TextureSlots`](lightlab_materials::TextureSlots) index.
+    pub textures: Vec<Texture>,
     pub lights: Vec<Light>,
     /// Power-proportional light selection; `None` when nothing emits.
     light_selection: Option<Distribution1D>,
@@ -36,6 +38,7 @@ impl Scene {
         accel: Accel,
         materials: Vec<Material>,
         material_names: Vec<String>,
+        textures: Vec<Texture>,
         lights: Vec<Light>,
     ) -> Scene {
         let lights = merge_environments(lights);
@@ -62,6 +65,7 @@ impl Scene {
             accel,
             materials,
             material_names,
+            textures,
             lights,
             light_selection,
             environment,

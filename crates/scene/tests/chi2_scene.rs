@@ -167,7 +167,7 @@ fn hit_sphere(o: DVec3, d: DVec3, c: DVec3, r: f64) -> Vec<f64> {
 fn chi2_sphere_area_light_sample_li() {
     let (center, radius) = (Vec3::new(-0.3, 0.4, 1.0), 0.8);
     let shapes = [Shape {
-        geometry: Geometry::Sphere(Sphere { center, radius }),
+        geometry: Geometry::Sphere(Sphere::new(center, radius)),
         material: 0,
         light: 0,
     }];

@@ -59,7 +59,7 @@ fn material(i: &Imported, name: &str) -> (MaterialRaw, bool) {
         .iter()
         .find(|(n, _)| n == name)
         .unwrap_or_else(|| panic!("no material {name}: {:?}", i.desc.materials));
-    (m.raw, m.one_sided)
+    (m.raw.clone(), m.one_sided)
 }
 
 /// The corners of each triangle of a mesh.
@@ -152,13 +152,13 @@ fn unsupported_plugins_are_errors_naming_what_is_supported() {
         ),
         (
             "texture",
-            "<texture type=\"bitmap\" id=\"t\"/>",
-            "<texture> is not imported",
+            "<texture type=\"noise\" id=\"t\"/>",
+            "texture type 'noise' is not imported",
         ),
         (
             "tex-param",
-            "<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"checkerboard\"/></bsdf>",
-            "a texture for 'reflectance'",
+            "<bsdf type=\"dielectric\"><texture name=\"specular_reflectance\" type=\"checkerboard\"/></bsdf>",
+            "a texture for 'specular_reflectance'",
         ),
         (
             "spectrum",
@@ -192,7 +192,7 @@ fn includes_and_references_resolve() {
     assert_eq!(
         material(&i, "grey").0,
         MaterialRaw::Diffuse {
-            albedo: Rgb::splat(0.25)
+            albedo: Rgb::splat(0.25).into()
         }
     );
     // A file that includes itself.
@@ -231,18 +231,28 @@ fn transforms_compose_in_order_like_mitsuba() {
             <matrix value="1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1"/></transform></shape>"#
         ),
     );
-    let GeometryRaw::QuadCorners { corners } = &i.desc.shapes[0].geometry.0 else {
+    let GeometryRaw::Mesh {
+        positions, indices, ..
+    } = &i.desc.shapes[0].geometry.0
+    else {
         panic!("{:?}", i.desc.shapes[0].geometry)
     };
-    assert!(close(corners.0, DVec3::new(3.0, 0.0, 3.0)), "{corners:?}");
-    // The front (p1 − p0) × (p3 − p0) is the rotated +z: still +z.
-    let n = (corners.1 - corners.0).cross(corners.3 - corners.0);
-    assert!(n.normalize().z > 0.999, "{n}");
+    assert!(
+        close(positions[0], DVec3::new(3.0, 0.0, 3.0)),
+        "{positions:?}"
+    );
+    // The front of each triangle is the rotated +z: still +z.
+    for [a, b, c] in triangles(positions, indices) {
+        assert!((b - a).cross(c - a).normalize().z > 0.999);
+    }
     // The matrix is row-major in the file: its last column is the translation.
-    let GeometryRaw::QuadCorners { corners } = &i.desc.shapes[1].geometry.0 else {
+    let GeometryRaw::Mesh { positions, .. } = &i.desc.shapes[1].geometry.0 else {
         panic!()
     };
-    assert!(close(corners.0, DVec3::new(4.0, 5.0, 7.0)), "{corners:?}");
+    assert!(
+        close(positions[0], DVec3::new(4.0, 5.0, 7.0)),
+        "{positions:?}"
+    );
     // Mitsuba does not normalise a rotation axis: this cube's corner (1, −1, −1) lands where
     // Mitsuba 3.9.1 puts it (its `vertex_positions`), not where a rigid rotation would.
     let i = ok(
@@ -416,6 +426,7 @@ fn mesh_files_get_mitsuba_normals() {
             positions,
             indices,
             normals,
+            ..
         } => (positions.clone(), indices.clone(), normals.clone()),
         g => panic!("{g:?}"),
     };
@@ -470,12 +481,14 @@ fn cubes_face_outward_and_spheres_take_their_transform() {
             "inward face {a} {b} {c}"
         );
     }
+    // The sphere is placed by its transform (which keeps its rotation for its (u, v)).
     let GeometryRaw::Sphere { center, radius } = i.desc.shapes[1].geometry.0 else {
         panic!()
     };
+    let t = &i.desc.shapes[1].transform;
     assert!(
-        close(center, DVec3::new(3.0, 1.0, 0.0)) && radius == 6.0,
-        "{center} {radius}"
+        center == DVec3::ZERO && close(t.translate, DVec3::new(3.0, 1.0, 0.0)) && radius == 6.0,
+        "{center} {radius} {t:?}"
     );
     let (_, _, m) = err(
         "ellipsoid",
@@ -511,7 +524,7 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
         material(&i, "d"),
         (
             MaterialRaw::Diffuse {
-                albedo: Rgb::splat(0.5)
+                albedo: Rgb::splat(0.5).into()
             },
             true
         )
@@ -520,7 +533,7 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
         material(&i, "two"),
         (
             MaterialRaw::Diffuse {
-                albedo: Rgb::new(0.2, 0.4, 0.6)
+                albedo: Rgb::new(0.2, 0.4, 0.6).into()
             },
             false
         )
@@ -529,7 +542,7 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
         material(&i, "mirror"),
         (
             MaterialRaw::Mirror {
-                reflectance: Rgb::WHITE
+                reflectance: Rgb::WHITE.into()
             },
             true
         )
@@ -647,7 +660,7 @@ fn emitters_become_lights() {
         material(&i, &i.desc.shapes[1].material),
         (
             MaterialRaw::Diffuse {
-                albedo: Rgb::splat(0.5)
+                albedo: Rgb::splat(0.5).into()
             },
             true
         )

@@ -221,9 +221,9 @@ fn trace<S: Sampler, V: Visitor>(
             visitor.escaped(&ray, beta, &arrival, counters);
             return;
         };
-        let material = scene.materials[hit.material as usize];
-        let bsdf = material.bsdf;
-        let sb = SurfaceBsdf::of(hit.ns, hit.dpdu, hit.ng, material);
+        let material = &scene.materials[hit.material as usize];
+        let bsdf = material.bsdf_at(hit.uv, &scene.textures);
+        let sb = SurfaceBsdf::of(hit.ns, hit.dpdu, hit.ng, material, bsdf);
         let mut v = PathVertex {
             kind: Kind::Surface,
             p: hit.p,

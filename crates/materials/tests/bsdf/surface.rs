@@ -218,11 +218,11 @@ fn one_sided_surfaces_are_black_from_behind_and_unchanged_in_front() {
         phong(20.0),
     ] {
         let material = Material {
-            bsdf,
             one_sided: true,
+            ..Material::two_sided(bsdf)
         };
-        let one = SurfaceBsdf::of(Vec3::Z, Vec3::X, Vec3::Z, material);
-        let two = SurfaceBsdf::of(Vec3::Z, Vec3::X, Vec3::Z, Material::two_sided(bsdf));
+        let one = SurfaceBsdf::of(Vec3::Z, Vec3::X, Vec3::Z, &material, bsdf);
+        let two = SurfaceBsdf::of(Vec3::Z, Vec3::X, Vec3::Z, &Material::two_sided(bsdf), bsdf);
         let (mut front_samples, mut back_two_sided) = (0, 0);
         for _ in 0..200 {
             let (wo, wi) = (uniform_sphere(&mut rng), uniform_sphere(&mut rng));

@@ -4,13 +4,18 @@
 use super::Refs;
 use super::object::Object;
 use super::presets::{CONDUCTORS, DIELECTRICS};
+use super::textures::{Textures, colour};
 use super::xml::Element;
 use crate::SceneError;
-use crate::desc::{MaterialDesc, MaterialRaw, Microfacets, Roughness};
+use crate::desc::{ColourDesc, MaterialDesc, MaterialRaw, Microfacets, Roughness};
 use lightlab_core::Rgb;
 
 /// The material of a `<bsdf>` element (resolving a nested `twosided`).
-pub(crate) fn material(el: &Element, refs: &Refs) -> Result<MaterialDesc, SceneError> {
+pub(crate) fn material(
+    el: &Element,
+    refs: &Refs,
+    textures: &mut Textures,
+) -> Result<MaterialDesc, SceneError> {
     let o = Object::new(el)?;
     let (raw, one_sided) = match o.ty {
         "twosided" => {
@@ -25,7 +30,7 @@ pub(crate) fn material(el: &Element, refs: &Refs) -> Result<MaterialDesc, SceneE
             };
             let inner = refs.resolve(inner, "bsdf")?;
             o.finish()?;
-            let m = material(inner, refs)?;
+            let m = material(inner, refs, textures)?;
             return Ok(MaterialDesc {
                 one_sided: false,
                 ..m
@@ -33,7 +38,8 @@ pub(crate) fn material(el: &Element, refs: &Refs) -> Result<MaterialDesc, SceneE
         }
         "diffuse" => (
             MaterialRaw::Diffuse {
-                albedo: o.color("reflectance")?.unwrap_or(Rgb::splat(0.5)),
+                albedo: colour(&o, "reflectance", refs, textures)?
+                    .unwrap_or(ColourDesc::Constant(Rgb::splat(0.5))),
             },
             true,
         ),
@@ -42,7 +48,8 @@ pub(crate) fn material(el: &Element, refs: &Refs) -> Result<MaterialDesc, SceneE
             let raw = match (eta, k) {
                 // Mitsuba's material "none": a perfect mirror scaled by specular_reflectance.
                 (None, _) => MaterialRaw::Mirror {
-                    reflectance: o.color("specular_reflectance")?.unwrap_or(Rgb::WHITE),
+                    reflectance: colour(&o, "specular_reflectance", refs, textures)?
+                        .unwrap_or(ColourDesc::Constant(Rgb::WHITE)),
                 },
                 (Some(eta), k) => {
                     unit_scale(&o)?;

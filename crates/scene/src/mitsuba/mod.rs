@@ -18,10 +18,11 @@ mod object;
 mod presets;
 mod sensor;
 mod shapes;
+mod textures;
 mod xml;
 
 use crate::SceneError;
-use crate::desc::{MaterialDesc, MaterialRaw, SceneDesc, ShapeDesc, TransformDesc};
+use crate::desc::{MaterialDesc, MaterialRaw, SceneDesc, ShapeDesc};
 use lightlab_core::Rgb;
 use object::Object;
 use std::collections::HashMap;
@@ -57,6 +58,7 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
     let base = path.parent().unwrap_or(Path::new("."));
 
     let mut materials = Materials::default();
+    let mut textures = textures::Textures::new(base);
     let mut shapes = Vec::new();
     let mut lights = Vec::new();
     let mut sensor = None;
@@ -79,13 +81,16 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
                 sensor = Some(sensor::sensor(el)?);
             }
             "bsdf" => {
-                materials.add(el, &refs)?;
+                materials.add(el, &refs, &mut textures)?;
+            }
+            "texture" => {
+                textures.add(el)?;
             }
             "shape" => {
                 let o = Object::new(el)?;
                 let bsdf = o.nested(&["bsdf", "ref"]);
                 let emitter = o.nested(&["emitter"]);
-                let geometry = shapes::geometry(&o, base)?;
+                let (geometry, transform) = shapes::geometry(&o, base)?;
                 o.finish()?;
                 if o.ty == "disk" {
                     notes.push(format!(
@@ -98,7 +103,7 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
                 }
                 let material = match bsdf[..] {
                     [] => materials.default_diffuse(),
-                    [b] => materials.add(refs.resolve(b, "bsdf")?, &refs)?,
+                    [b] => materials.add(refs.resolve(b, "bsdf")?, &refs, &mut textures)?,
                     _ => return Err(o.error(format!("{} has more than one BSDF", o.describe()))),
                 };
                 let emission = match emitter[..] {
@@ -113,11 +118,11 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
                     geometry,
                     material,
                     emission,
-                    transform: TransformDesc::default(),
+                    transform,
                 });
             }
             "emitter" => lights.push(emitters::light(el)?),
-            "texture" | "medium" | "volume" | "phase" => {
+            "medium" | "volume" | "phase" => {
                 return Err(el.at.error(format!(
                     "<{}> is not imported (see scenes/README.md, \"Mitsuba scenes\")",
                     el.tag
@@ -142,6 +147,7 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
         desc: SceneDesc {
             camera: sensor.camera,
             materials: materials.list,
+            textures: textures.list,
             shapes,
             lights,
         },
@@ -204,12 +210,17 @@ struct Materials {
 }
 
 impl Materials {
-    fn add(&mut self, el: &Element, refs: &Refs) -> Result<String, SceneError> {
+    fn add(
+        &mut self,
+        el: &Element,
+        refs: &Refs,
+        textures: &mut textures::Textures,
+    ) -> Result<String, SceneError> {
         let key = el as *const Element as usize;
         if let Some(name) = self.seen.get(&key) {
             return Ok(name.clone());
         }
-        let m = bsdfs::material(el, refs)?;
+        let m = bsdfs::material(el, refs, textures)?;
         let name = match el.attr("id") {
             Some(id) => id.to_string(),
             None => format!(
@@ -229,7 +240,7 @@ impl Materials {
         let name = "default diffuse (Mitsuba's default BSDF)";
         if !self.list.iter().any(|(n, _)| n == name) {
             let raw = MaterialRaw::Diffuse {
-                albedo: Rgb::splat(0.5),
+                albedo: Rgb::splat(0.5).into(),
             };
             self.list.push((
                 name.to_string(),

@@ -151,8 +151,8 @@ impl<'a> Object<'a> {
                 })
             {
                 return Err(t.at.error(format!(
-                    "a texture for '{name}' of {}: textures are not imported yet (give a \
-                     constant <rgb>)",
+                    "a texture for '{name}' of {}: Lightlab textures reflectance colours only \
+                     (diffuse reflectance, conductor specular_reflectance); give a constant <rgb>",
                     self.describe()
                 )));
             }
@@ -210,6 +210,17 @@ impl<'a> Object<'a> {
             }
         }
         out
+    }
+
+    /// The nested plugin or reference (tag among `tags`) bound to parameter `name`, marked as read.
+    pub fn nested_named(&self, name: &str, tags: &[&str]) -> Option<&'a Element> {
+        let i = self
+            .el
+            .children
+            .iter()
+            .position(|c| tags.contains(&c.tag.as_str()) && c.attr("name") == Some(name))?;
+        self.used.borrow_mut()[i] = true;
+        Some(&self.el.children[i])
     }
 
     /// The first child nobody read is an error: an unknown parameter or an unsupported nested

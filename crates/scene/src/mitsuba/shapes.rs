@@ -5,15 +5,28 @@
 //! is set; a mesh file without normals gets angle-weighted vertex normals (Thürmer and Wüthrich
 //! 1998; Mitsuba's `recompute_vertex_normals`), so smooth meshes shade smoothly in both renderers.
 //! `flip_normals` turns the front side (and so the side one-sided BSDFs and area lights face).
+//!
+//! Texture coordinates are Mitsuba's (read off Mitsuba 3.9.1): a mesh file's own (OBJ's v flipped
+//! unless `flip_tex_coords` is false; PLY's `u`/`v`, `s`/`t` or `texture_u`/`texture_v` as they
+//! are), barycentric (b₁, b₂) without them; a rectangle's ((x + 1)/2, (y + 1)/2) in its own frame;
+//! Mitsuba's own table for the cube; a disk's (r, φ / 2π); a sphere's (φ / 2π, θ / π) in its own
+//! (rotated) frame.
 
 use super::object::Object;
 use crate::SceneError;
-use crate::desc::{GeometryDesc, GeometryRaw};
-use glam::{DMat3, DMat4, DVec3, Vec3};
+use crate::desc::{GeometryDesc, GeometryRaw, RotationDesc, TransformDesc};
+use crate::load::MeshFile;
+use glam::{DMat3, DMat4, DQuat, DVec3, Vec2, Vec3};
 use std::path::Path;
 
-/// The world-space geometry of a `<shape>` (its nested BSDF and emitter are read by the caller).
-pub(crate) fn geometry(o: &Object, base: &Path) -> Result<GeometryDesc, SceneError> {
+/// The world-space geometry of a `<shape>` and the transform that places it (the identity except
+/// for spheres, which keep their rotation for their parameterisation); its nested BSDF and emitter
+/// are read by the caller.
+pub(crate) fn geometry(
+    o: &Object,
+    base: &Path,
+) -> Result<(GeometryDesc, TransformDesc), SceneError> {
+    let mut transform = TransformDesc::default();
     let to_world = o.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
     let flip = o.boolean("flip_normals", false)?;
     let g = match o.ty {
@@ -22,31 +35,37 @@ pub(crate) fn geometry(o: &Object, base: &Path) -> Result<GeometryDesc, SceneErr
                 .string("filename")?
                 .ok_or_else(|| o.error(format!("{} needs a filename", o.describe())))?;
             let face_normals = o.boolean("face_normals", false)?;
-            if o.ty == "obj" {
-                // Texture coordinates are not used yet; the flag only flips their v.
-                o.boolean("flip_tex_coords", true)?;
-            }
+            let flip_v = o.ty == "obj" && o.boolean("flip_tex_coords", true)?;
             let path = base.join(file);
-            let (positions, indices, normals) = if o.ty == "obj" {
-                crate::load::load_obj(&path, !face_normals)
+            let m = if o.ty == "obj" {
+                crate::load::load_obj(&path, !face_normals, flip_v)
             } else {
                 load_ply(&path)
             }
             .map_err(|m| o.error(m))?;
-            mesh(positions, indices, normals, face_normals, to_world, flip)
+            mesh(m, face_normals, to_world, flip)
         }
         "rectangle" => {
-            let c = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-                .map(|(x, y)| to_world.transform_point3(DVec3::new(x, y, 0.0)));
+            let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
             // The front is the transformed normal (0, 0, 1) (normals transform by the inverse
             // transpose): a mirroring transform reverses the corners' winding.
-            let (p1, p3) = if (to_world.determinant() < 0.0) != flip {
-                (c[3], c[1])
-            } else {
-                (c[1], c[3])
-            };
-            GeometryRaw::QuadCorners {
-                corners: (c[0], p1, c[2], p3),
+            let mirror = (to_world.determinant() < 0.0) != flip;
+            let tris = [(0, 1, 2), (0, 2, 3)];
+            GeometryRaw::Mesh {
+                positions: corners
+                    .iter()
+                    .map(|&(x, y)| to_world.transform_point3(DVec3::new(x, y, 0.0)))
+                    .collect(),
+                indices: tris
+                    .map(|(a, b, c)| if mirror { (a, c, b) } else { (a, b, c) })
+                    .to_vec(),
+                normals: None,
+                uvs: Some(
+                    corners
+                        .iter()
+                        .map(|&(x, y)| Vec2::new(0.5 * (x + 1.0) as f32, 0.5 * (y + 1.0) as f32))
+                        .collect(),
+                ),
             }
         }
         "disk" => {
@@ -56,51 +75,50 @@ pub(crate) fn geometry(o: &Object, base: &Path) -> Result<GeometryDesc, SceneErr
             let n = DISK_SEGMENTS;
             let theta = std::f64::consts::TAU / n as f64;
             let k = (theta / theta.sin()).sqrt();
-            let mut positions = vec![to_world.transform_point3(DVec3::ZERO)];
-            positions.extend((0..n).map(|i| {
+            // Vertices: n + 1 on the rim (the first repeated at φ = 2π, where u wraps), then one
+            // centre per triangle with the triangle's middle φ, so that (r, φ / 2π) interpolates
+            // within 1/(2n) of Mitsuba's.
+            let rim = |i: usize| {
                 let (s, c) = (i as f64 * theta).sin_cos();
                 to_world.transform_point3(DVec3::new(k * c, k * s, 0.0))
-            }));
+            };
+            let mut positions: Vec<DVec3> = (0..=n).map(rim).collect();
+            let mut uvs: Vec<Vec2> = (0..=n)
+                .map(|i| Vec2::new(k as f32, i as f32 / n as f32))
+                .collect();
+            let centre = to_world.transform_point3(DVec3::ZERO);
+            positions.extend(std::iter::repeat_n(centre, n));
+            uvs.extend((0..n).map(|i| Vec2::new(0.0, (i as f32 + 0.5) / n as f32)));
             let mirror = (to_world.determinant() < 0.0) != flip;
             let indices = (0..n as u32)
                 .map(|i| {
-                    let (a, b) = (1 + i, 1 + (i + 1) % n as u32);
-                    if mirror { (0, b, a) } else { (0, a, b) }
+                    let (c, a, b) = (n as u32 + 1 + i, i, i + 1);
+                    if mirror { (c, b, a) } else { (c, a, b) }
                 })
                 .collect();
             GeometryRaw::Mesh {
                 positions,
                 indices,
                 normals: None,
+                uvs: Some(uvs),
             }
         }
         "cube" => {
-            let mut positions = Vec::with_capacity(24);
-            let mut indices = Vec::with_capacity(12);
             let mirror = (to_world.determinant() < 0.0) != flip;
-            for a in 0..3 {
-                let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-                for s in [1.0f64, -1.0] {
-                    // Corners of the face x_a = s in counter-clockwise order seen from outside.
-                    let (e1, e2) = if s > 0.0 {
-                        (DVec3::AXES[b], DVec3::AXES[c])
-                    } else {
-                        (DVec3::AXES[c], DVec3::AXES[b])
-                    };
-                    let centre = DVec3::AXES[a] * s;
-                    let k = positions.len() as u32;
-                    for (u, v) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                        positions.push(to_world.transform_point3(centre + e1 * u + e2 * v));
-                    }
-                    let tris = [[k, k + 1, k + 2], [k, k + 2, k + 3]];
-                    indices
-                        .extend(tris.map(|[x, y, z]| if mirror { (x, z, y) } else { (x, y, z) }));
-                }
-            }
             GeometryRaw::Mesh {
-                positions,
-                indices,
+                positions: CUBE_POSITIONS
+                    .iter()
+                    .map(|&p| to_world.transform_point3(DVec3::from_array(p)))
+                    .collect(),
+                indices: (0..6u32)
+                    .flat_map(|f| {
+                        let k = 4 * f;
+                        [(k, k + 1, k + 2), (k + 3, k, k + 2)]
+                    })
+                    .map(|(a, b, c)| if mirror { (a, c, b) } else { (a, b, c) })
+                    .collect(),
                 normals: None,
+                uvs: Some((0..6).flat_map(|_| CUBE_FACE_UVS).collect()),
             }
         }
         "sphere" => {
@@ -127,8 +145,24 @@ pub(crate) fn geometry(o: &Object, base: &Path) -> Result<GeometryDesc, SceneErr
                      ellipsoid is not a sphere)",
                 ));
             }
+            if lin.determinant() < 0.0 {
+                return Err(o.error(
+                    "a mirroring to_world on a sphere is not imported (its parameterisation would \
+                     be mirrored; use a rotation)",
+                ));
+            }
+            // The sphere's own frame, for its (u, v): the rotation part, as an axis and angle.
+            let (axis, angle) = DQuat::from_mat3(&(lin * (1.0 / r))).to_axis_angle();
+            transform = TransformDesc {
+                rotate: vec![RotationDesc {
+                    axis: axis.as_vec3(),
+                    degrees: angle.to_degrees() as f32,
+                }],
+                translate: m.transform_point3(DVec3::ZERO),
+                ..TransformDesc::default()
+            };
             GeometryRaw::Sphere {
-                center: m.transform_point3(DVec3::ZERO),
+                center: DVec3::ZERO,
                 radius: r as f32,
             }
         }
@@ -139,23 +173,56 @@ pub(crate) fn geometry(o: &Object, base: &Path) -> Result<GeometryDesc, SceneErr
             )));
         }
     };
-    GeometryDesc::try_from(g).map_err(|e| o.error(format!("{}: {e}", o.describe())))
+    let g = GeometryDesc::try_from(g).map_err(|e| o.error(format!("{}: {e}", o.describe())))?;
+    Ok((g, transform))
 }
+
+/// Mitsuba 3.9.1's `cube`: four corners per face (faces −y, +y, +x, +z, −x, −z), triangles
+/// (0, 1, 2) and (3, 0, 2) of each, and the same (u, v) on every face.
+const CUBE_POSITIONS: [[f64; 3]; 24] = [
+    [1.0, -1.0, -1.0],
+    [1.0, -1.0, 1.0],
+    [-1.0, -1.0, 1.0],
+    [-1.0, -1.0, -1.0],
+    [1.0, 1.0, -1.0],
+    [-1.0, 1.0, -1.0],
+    [-1.0, 1.0, 1.0],
+    [1.0, 1.0, 1.0],
+    [1.0, -1.0, -1.0],
+    [1.0, 1.0, -1.0],
+    [1.0, 1.0, 1.0],
+    [1.0, -1.0, 1.0],
+    [1.0, -1.0, 1.0],
+    [1.0, 1.0, 1.0],
+    [-1.0, 1.0, 1.0],
+    [-1.0, -1.0, 1.0],
+    [-1.0, -1.0, 1.0],
+    [-1.0, 1.0, 1.0],
+    [-1.0, 1.0, -1.0],
+    [-1.0, -1.0, -1.0],
+    [1.0, 1.0, -1.0],
+    [1.0, -1.0, -1.0],
+    [-1.0, -1.0, -1.0],
+    [-1.0, 1.0, -1.0],
+];
+const CUBE_FACE_UVS: [Vec2; 4] = [
+    Vec2::new(0.0, 1.0),
+    Vec2::new(1.0, 1.0),
+    Vec2::new(1.0, 0.0),
+    Vec2::new(0.0, 0.0),
+];
 
 /// Triangles of a tessellated `disk`.
 pub(crate) const DISK_SEGMENTS: usize = 1024;
 
-type Mesh = (Vec<DVec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>);
-
 /// A mesh file's triangles in world space, with Mitsuba's normals (see the module docs).
-fn mesh(
-    positions: Vec<DVec3>,
-    indices: Vec<[u32; 3]>,
-    normals: Option<Vec<Vec3>>,
-    face_normals: bool,
-    to_world: DMat4,
-    flip: bool,
-) -> GeometryRaw {
+fn mesh(m: MeshFile, face_normals: bool, to_world: DMat4, flip: bool) -> GeometryRaw {
+    let MeshFile {
+        positions,
+        indices,
+        normals,
+        uvs,
+    } = m;
     let positions: Vec<DVec3> = positions
         .into_iter()
         .map(|p| to_world.transform_point3(p))
@@ -180,6 +247,7 @@ fn mesh(
             .map(|[a, b, c]| if flip { (a, c, b) } else { (a, b, c) })
             .collect(),
         normals: normals.map(|ns| ns.into_iter().map(|n| n * sign).collect()),
+        uvs,
     }
 }
 
@@ -205,7 +273,7 @@ fn angle_weighted_normals(positions: &[DVec3], indices: &[[u32; 3]]) -> Vec<Vec3
 
 /// Reads the vertices (x, y, z and optional nx, ny, nz) and faces (polygons, fan-triangulated) of
 /// a PLY file, ASCII or binary.
-fn load_ply(path: &Path) -> Result<Mesh, String> {
+fn load_ply(path: &Path) -> Result<MeshFile, String> {
     use ply_rs_bw::parser::Parser;
     use ply_rs_bw::ply::{DefaultElement, Property};
     let file = std::fs::File::open(path)
@@ -227,6 +295,7 @@ fn load_ply(path: &Path) -> Result<Mesh, String> {
         .ok_or_else(|| format!("PLY file {} has no vertex element", path.display()))?;
     let mut positions = Vec::with_capacity(vertices.len());
     let mut normals = Vec::with_capacity(vertices.len());
+    let mut uvs = Vec::with_capacity(vertices.len());
     for (i, v) in vertices.iter().enumerate() {
         let p = match (scalar(v, "x"), scalar(v, "y"), scalar(v, "z")) {
             (Some(x), Some(y), Some(z)) => DVec3::new(x, y, z),
@@ -246,6 +315,17 @@ fn load_ply(path: &Path) -> Result<Mesh, String> {
         positions.push(p);
         if let (Some(x), Some(y), Some(z)) = (scalar(v, "nx"), scalar(v, "ny"), scalar(v, "nz")) {
             normals.push(Vec3::new(x as f32, y as f32, z as f32));
+        }
+        let uv = [
+            ("u", "v"),
+            ("s", "t"),
+            ("texture_u", "texture_v"),
+            ("texture_s", "texture_t"),
+        ]
+        .iter()
+        .find_map(|&(a, b)| Some(Vec2::new(scalar(v, a)? as f32, scalar(v, b)? as f32)));
+        if let Some(uv) = uv {
+            uvs.push(uv);
         }
     }
     let faces = ply
@@ -289,5 +369,11 @@ fn load_ply(path: &Path) -> Result<Mesh, String> {
             .iter()
             .all(|n| n.is_finite() && n.length_squared() > 0.0))
     .then_some(normals);
-    Ok((positions, indices, normals))
+    let uvs = (uvs.len() == positions.len() && uvs.iter().all(|uv| uv.is_finite())).then_some(uvs);
+    Ok(MeshFile {
+        positions,
+        indices,
+        normals,
+        uvs,
+    })
 }

@@ -1,0 +1,138 @@
+//! Mitsuba texture plugins (`bitmap`, `checkerboard`) as Lightlab textures, each element imported
+//! once however often it is referenced. Their lookups follow Mitsuba's (see
+//! `lightlab_materials::Texture`); `to_uv` keeps its full 2D affine part (Mitsuba applies the
+//! 4 × 4 matrix's x and y rows to (u, v, ·, 1)).
+
+use super::Refs;
+use super::object::Object;
+use super::xml::Element;
+use crate::SceneError;
+use crate::desc::{ColourDesc, FilterDesc, TextureDesc, WrapDesc};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Textures in the order first met.
+pub(crate) struct Textures {
+    pub list: Vec<(String, TextureDesc)>,
+    /// Element address → texture name.
+    seen: HashMap<usize, String>,
+    /// The directory bitmap file names are relative to.
+    base: PathBuf,
+}
+
+impl Textures {
+    pub fn new(base: &Path) -> Textures {
+        Textures {
+            list: Vec::new(),
+            seen: HashMap::new(),
+            base: base.to_path_buf(),
+        }
+    }
+
+    /// The name of the texture element `el` (imported on first use).
+    pub fn add(&mut self, el: &Element) -> Result<String, SceneError> {
+        let key = el as *const Element as usize;
+        if let Some(name) = self.seen.get(&key) {
+            return Ok(name.clone());
+        }
+        let t = texture(el, &self.base)?;
+        let name = match el.attr("id") {
+            Some(id) => id.to_string(),
+            None => format!(
+                "{} texture at {}:{}",
+                el.attr("type").unwrap_or("?"),
+                el.at.file.display(),
+                el.at.line
+            ),
+        };
+        self.list.push((name.clone(), t));
+        self.seen.insert(key, name.clone());
+        Ok(name)
+    }
+}
+
+/// Colour parameter `name` of `o`: a constant, or a nested `<texture name>` or `<ref name id>`
+/// naming one.
+pub(crate) fn colour(
+    o: &Object,
+    name: &str,
+    refs: &Refs,
+    textures: &mut Textures,
+) -> Result<Option<ColourDesc>, SceneError> {
+    match o.nested_named(name, &["texture", "ref"]) {
+        Some(el) => {
+            let el = refs.resolve(el, "texture")?;
+            Ok(Some(ColourDesc::Texture(textures.add(el)?)))
+        }
+        None => Ok(o.color(name)?.map(ColourDesc::Constant)),
+    }
+}
+
+fn texture(el: &Element, base: &Path) -> Result<TextureDesc, SceneError> {
+    let o = Object::new(el)?;
+    let to_uv = match o.transform("to_uv")? {
+        Some(m) => {
+            let m = m.to_cols_array_2d();
+            // m[column][row]: u′ = m00·u + m01·v + m03, v′ = m10·u + m11·v + m13.
+            let row = |r: usize| [m[0][r] as f32, m[1][r] as f32, m[3][r] as f32];
+            Some([row(0), row(1)])
+        }
+        None => None,
+    };
+    let t = match o.ty {
+        "bitmap" => {
+            let file = o
+                .string("filename")?
+                .ok_or_else(|| o.error(format!("{} needs a filename", o.describe())))?;
+            let filter = match o.string("filter_type")?.unwrap_or("bilinear") {
+                "bilinear" => FilterDesc::Bilinear,
+                "nearest" => FilterDesc::Nearest,
+                other => {
+                    return Err(o.error(format!(
+                        "filter_type \"{other}\" is not Mitsuba's (bilinear, nearest)"
+                    )));
+                }
+            };
+            let wrap = match o.string("wrap_mode")?.unwrap_or("repeat") {
+                "repeat" => WrapDesc::Repeat,
+                "mirror" => WrapDesc::Mirror,
+                "clamp" => WrapDesc::Clamp,
+                other => {
+                    return Err(o.error(format!(
+                        "wrap_mode \"{other}\" is not Mitsuba's (repeat, mirror, clamp)"
+                    )));
+                }
+            };
+            let raw = o.boolean("raw", false)?;
+            // Storage precision and a lookup acceleration structure: neither changes a value
+            // beyond rounding.
+            o.string("format")?;
+            o.boolean("accel", true)?;
+            TextureDesc::Bitmap {
+                file: base.join(file).to_string_lossy().into_owned(),
+                filter,
+                wrap,
+                raw,
+                scale: (1.0, 1.0),
+                offset: (0.0, 0.0),
+                to_uv,
+            }
+        }
+        "checkerboard" => TextureDesc::Checkerboard {
+            color0: o.color("color0")?.unwrap_or(lightlab_core::Rgb::splat(0.4)),
+            color1: o.color("color1")?.unwrap_or(lightlab_core::Rgb::splat(0.2)),
+            scale: (1.0, 1.0),
+            offset: (0.0, 0.0),
+            to_uv,
+        },
+        other => {
+            return Err(o.error(format!(
+                "texture type '{other}' is not imported (supported: bitmap, checkerboard)"
+            )));
+        }
+    };
+    o.finish()?;
+    t.check()
+        .map_err(|m| o.error(format!("{}: {m}", o.describe())))?;
+    Ok(t)
+}
