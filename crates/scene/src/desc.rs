@@ -252,7 +252,7 @@ impl<'de> Deserialize<'de> for ColourDesc {
 
 /// A texture: a bitmap image or a checkerboard, placed on a surface's (u, v) by
 /// (u′, v′) = (u·scale.0 + offset.0, v·scale.1 + offset.1), or by a general affine map given as
-/// `to_uv: [[a, b, c], [d, e, f]]`, u′ = a·u + b·v + c, v′ = d·u + e·v + f (instead of scale and
+/// `to_uv: ((a, b, c), (d, e, f))`, u′ = a·u + b·v + c, v′ = d·u + e·v + f (instead of scale and
 /// offset; Mitsuba's `to_uv`). Image row 0 (the top) lies at v′ = 0
 /// and the image covers [0, 1)² (Mitsuba 3's conventions). Surfaces' (u, v): meshes' own texture
 /// coordinates (OBJ files' v flipped, as Mitsuba does), quads (0, 0) at `corner` to (1, 1) at the
@@ -836,8 +836,8 @@ pub enum LightRaw {
     },
     /// Constant radiance arriving from every direction at infinity (≥ 0).
     Environment { radiance: Rgb },
-    /// Radiance from infinity read from a latitude–longitude OpenEXR image `file` (relative to the
-    /// scene file), Mitsuba 3's `envmap` parameterisation (+y is the top row; see
+    /// Radiance from infinity read from a latitude–longitude image `file` (relative to the scene
+    /// file; OpenEXR or Radiance HDR, or PNG/JPEG decoded from sRGB), Mitsuba 3's `envmap` parameterisation (+y is the top row; see
     /// scenes/README.md), times `scale` (≥ 0, default 1), turned by `rotate` (as in `Transform`).
     /// Importance-sampled by its brightness. At most one per scene; constant `Environment`s add
     /// to it.

@@ -1,4 +1,4 @@
-//! Reading images that scenes refer to (environment maps).
+//! Reading images that scenes refer to (environment maps and textures).
 
 use lightlab_core::Rgb;
 use std::path::Path;
@@ -69,4 +69,82 @@ fn read_rgb_exr(path: &Path) -> Result<RgbImage, String> {
     let size = image.layer_data.size;
     let (_, texels) = image.layer_data.channel_data.pixels;
     Ok((size.width(), size.height(), texels))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir() -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("lightlab-image-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// 8-bit 128 and 64 decode to Mitsuba 3.9.1's 0.21586 and 0.0512694 (its `bitmap` on the same
+    /// PNG), 255 to 1; `raw` keeps 128/255.
+    #[test]
+    fn png_is_decoded_from_srgb_unless_raw() {
+        let path = dir().join("s.png");
+        image::RgbImage::from_pixel(1, 1, image::Rgb([128, 64, 255]))
+            .save(&path)
+            .unwrap();
+        let (w, h, t) = read_rgb_image(&path, false).unwrap();
+        assert_eq!((w, h), (1, 1));
+        assert!(
+            (t[0] - Rgb::new(0.21586, 0.0512694, 1.0))
+                .map(f32::abs)
+                .max_component()
+                < 2e-5
+        );
+        let (_, _, t) = read_rgb_image(&path, true).unwrap();
+        assert!((t[0].r - 128.0 / 255.0).abs() < 1e-6);
+    }
+
+    /// 16-bit and grey PNGs decode too (grey to three equal channels), rows from the top.
+    #[test]
+    fn sixteen_bit_and_grey_images() {
+        let path = dir().join("grey16.png");
+        image::ImageBuffer::<image::Luma<u16>, _>::from_fn(1, 2, |_, y| {
+            image::Luma([65535 * y as u16])
+        })
+        .save(&path)
+        .unwrap();
+        let (w, h, t) = read_rgb_image(&path, false).unwrap();
+        assert_eq!((w, h), (1, 2));
+        assert_eq!(t[0], Rgb::BLACK);
+        assert!((t[1] - Rgb::WHITE).map(f32::abs).max_component() < 1e-6);
+    }
+
+    /// Radiance HDR is linear: values above 1 survive (to its 8-bit shared-exponent precision).
+    #[test]
+    fn hdr_is_linear() {
+        let path = dir().join("sky.hdr");
+        image::Rgb32FImage::from_pixel(2, 1, image::Rgb([4.0, 0.5, 0.25]))
+            .save(&path)
+            .unwrap();
+        let (_, _, t) = read_rgb_image(&path, false).unwrap();
+        assert!(
+            (t[1] - Rgb::new(4.0, 0.5, 0.25))
+                .map(f32::abs)
+                .max_component()
+                < 0.02
+        );
+    }
+
+    #[test]
+    fn unreadable_images_are_errors() {
+        let path = dir().join("not-an-image.png");
+        std::fs::write(&path, "text").unwrap();
+        assert!(
+            read_rgb_image(&path, false)
+                .unwrap_err()
+                .contains("cannot read")
+        );
+        assert!(
+            read_rgb_image(&dir().join("missing.png"), false)
+                .unwrap_err()
+                .contains("does not exist")
+        );
+    }
 }

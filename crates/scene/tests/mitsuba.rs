@@ -618,13 +618,24 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
         m.contains("'int_ior' = '1,5' is not a finite number"),
         "{m}"
     );
-    let (_, _, m) = err(
+    // alpha_u along ∂p/∂u, alpha_v across it.
+    let i = ok(
         "anisotropic",
         &format!(
-            "{SENSOR}<bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"ggx\"/><float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha_v\" value=\"0.3\"/></bsdf>"
+            "{SENSOR}<bsdf type=\"roughconductor\" id=\"a\"><string name=\"distribution\" value=\"ggx\"/><float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha_v\" value=\"0.3\"/></bsdf>"
         ),
     );
-    assert!(m.contains("anisotropic"), "{m}");
+    let MaterialRaw::RoughConductor { roughness, .. } = material(&i, "a").0 else {
+        panic!()
+    };
+    assert_eq!(roughness, Roughness::Anisotropic(0.1, 0.3));
+    let (_, _, m) = err(
+        "half-anisotropic",
+        &format!(
+            "{SENSOR}<bsdf type=\"roughconductor\"><float name=\"alpha_u\" value=\"0.1\"/></bsdf>"
+        ),
+    );
+    assert!(m.contains("given together"), "{m}");
     let (_, _, m) = err(
         "bad-preset",
         &format!(

@@ -163,15 +163,8 @@ fn roughness(o: &Object) -> Result<(Roughness, Microfacets), SceneError> {
         (Some(a), None, None) => Roughness::Isotropic(a as f32),
         (None, None, None) => Roughness::Isotropic(0.1),
         (None, Some(u), Some(v)) if u == v => Roughness::Isotropic(u as f32),
-        (None, Some(_), Some(_)) => {
-            // The lobe's orientation follows ∂p/∂u, which Mitsuba takes from the shape's texture
-            // coordinates; Lightlab's imported meshes carry none yet, so the highlight would turn.
-            return Err(o.error(format!(
-                "{}: anisotropic roughness (alpha_u ≠ alpha_v) is not imported yet: its \
-                 orientation needs Mitsuba's texture parameterisation of the shape",
-                o.describe()
-            )));
-        }
+        // α_u along ∂p/∂u, which every imported shape takes from Mitsuba's own parameterisation.
+        (None, Some(u), Some(v)) => Roughness::Anisotropic(u as f32, v as f32),
         (None, _, _) => return Err(o.error("alpha_u and alpha_v must be given together")),
     };
     Ok((r, distribution))

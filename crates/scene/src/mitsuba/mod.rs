@@ -58,7 +58,7 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
     let base = path.parent().unwrap_or(Path::new("."));
 
     let mut materials = Materials::default();
-    let mut textures = textures::Textures::new(base);
+    let mut textures = textures::Textures::default();
     let mut shapes = Vec::new();
     let mut lights = Vec::new();
     let mut sensor = None;

@@ -9,33 +9,24 @@ use super::xml::Element;
 use crate::SceneError;
 use crate::desc::{ColourDesc, FilterDesc, TextureDesc, WrapDesc};
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
 
-/// Textures in the order first met.
+/// Textures in the order first met. Bitmap file names stay relative to the scene file, as the
+/// loader reads them.
+#[derive(Default)]
 pub(crate) struct Textures {
     pub list: Vec<(String, TextureDesc)>,
     /// Element address → texture name.
     seen: HashMap<usize, String>,
-    /// The directory bitmap file names are relative to.
-    base: PathBuf,
 }
 
 impl Textures {
-    pub fn new(base: &Path) -> Textures {
-        Textures {
-            list: Vec::new(),
-            seen: HashMap::new(),
-            base: base.to_path_buf(),
-        }
-    }
-
     /// The name of the texture element `el` (imported on first use).
     pub fn add(&mut self, el: &Element) -> Result<String, SceneError> {
         let key = el as *const Element as usize;
         if let Some(name) = self.seen.get(&key) {
             return Ok(name.clone());
         }
-        let t = texture(el, &self.base)?;
+        let t = texture(el)?;
         let name = match el.attr("id") {
             Some(id) => id.to_string(),
             None => format!(
@@ -68,7 +59,7 @@ pub(crate) fn colour(
     }
 }
 
-fn texture(el: &Element, base: &Path) -> Result<TextureDesc, SceneError> {
+fn texture(el: &Element) -> Result<TextureDesc, SceneError> {
     let o = Object::new(el)?;
     let to_uv = match o.transform("to_uv")? {
         Some(m) => {
@@ -109,7 +100,7 @@ fn texture(el: &Element, base: &Path) -> Result<TextureDesc, SceneError> {
             o.string("format")?;
             o.boolean("accel", true)?;
             TextureDesc::Bitmap {
-                file: base.join(file).to_string_lossy().into_owned(),
+                file: file.to_string(),
                 filter,
                 wrap,
                 raw,
