@@ -252,8 +252,8 @@ mod tests {
         assert!((s.uv.y - 1.0).abs() < 1e-6);
     }
 
-    /// Mitsuba 3.9.1's sphere parameterisation, read off `ray_intersect` (benches/peers has the
-    /// probe's method): (o, d) → (u, v), ∂p/∂u; then a sphere rotated 90° about x.
+    /// Mitsuba 3.9.1's sphere parameterisation, read off `ray_intersect` (benches/peers/mitsuba_texture_probe.py
+    /// prints them): (o, d) → (u, v), ∂p/∂u; then a sphere rotated 90° about x.
     #[test]
     fn parameterisation_is_mitsubas() {
         let cases = [
