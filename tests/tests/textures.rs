@@ -12,7 +12,7 @@
 
 use glam::{DVec3, Vec2};
 use lightlab_testkit::stats::{sidak, z_critical};
-use lightlab_tests::{regions, render, z};
+use lightlab_tests::{assert_mean_near, regions, render};
 use std::path::PathBuf;
 
 /// The quad [−1, 1]² in y = 0 facing +y, seen from (0, 2, 0) with a field of view that covers it
@@ -64,16 +64,13 @@ fn check(text: &str, name: &str, expected: impl Fn(Vec2) -> [f64; 3]) {
     for (config, spp) in configs {
         let got = regions(&render(&sc, config, spp, 3), n);
         for (r, ((mean, se), want)) in got.iter().zip(&want).enumerate() {
-            for c in 0..3 {
-                let z = z(mean[c], se[c], want[c], 0.0);
-                assert!(
-                    z.abs() < crit,
-                    "{name}, {config}: region {r} channel {c}: {} ± {} vs {}, z = {z:.2}",
-                    mean[c],
-                    se[c],
-                    want[c]
-                );
-            }
+            assert_mean_near(
+                &format!("{name}, {config}, region {r}"),
+                *mean,
+                *se,
+                *want,
+                crit,
+            );
         }
     }
 }

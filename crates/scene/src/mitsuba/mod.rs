@@ -146,8 +146,8 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
     Ok(Imported {
         desc: SceneDesc {
             camera: sensor.camera,
-            materials: materials.list,
-            textures: textures.list,
+            materials: materials.0.list,
+            textures: textures.0.list,
             shapes,
             lights,
         },
@@ -201,13 +201,54 @@ impl<'a> Refs<'a> {
     }
 }
 
-/// Materials in the order first met, each BSDF element imported once.
-#[derive(Default)]
-struct Materials {
-    list: Vec<(String, MaterialDesc)>,
-    /// Element address → material name.
+/// Plugins (BSDFs, textures) in the order first met, each element imported once however often it
+/// is referenced, named by its `id` (or its type and place in the file).
+pub(crate) struct Once<T> {
+    pub list: Vec<(String, T)>,
+    /// Element address → name.
     seen: HashMap<usize, String>,
 }
+
+impl<T> Default for Once<T> {
+    fn default() -> Self {
+        Once {
+            list: Vec::new(),
+            seen: HashMap::new(),
+        }
+    }
+}
+
+impl<T> Once<T> {
+    /// The name of `el` (a `<kind>`), imported by `import` on first use.
+    pub fn add(
+        &mut self,
+        el: &Element,
+        kind: &str,
+        import: impl FnOnce() -> Result<T, SceneError>,
+    ) -> Result<String, SceneError> {
+        let key = el as *const Element as usize;
+        if let Some(name) = self.seen.get(&key) {
+            return Ok(name.clone());
+        }
+        let value = import()?;
+        let name = match el.attr("id") {
+            Some(id) => id.to_string(),
+            None => format!(
+                "{} {kind} at {}:{}",
+                el.attr("type").unwrap_or("?"),
+                el.at.file.display(),
+                el.at.line
+            ),
+        };
+        self.list.push((name.clone(), value));
+        self.seen.insert(key, name.clone());
+        Ok(name)
+    }
+}
+
+/// The scene's materials.
+#[derive(Default)]
+struct Materials(Once<MaterialDesc>);
 
 impl Materials {
     fn add(
@@ -216,33 +257,18 @@ impl Materials {
         refs: &Refs,
         textures: &mut textures::Textures,
     ) -> Result<String, SceneError> {
-        let key = el as *const Element as usize;
-        if let Some(name) = self.seen.get(&key) {
-            return Ok(name.clone());
-        }
-        let m = bsdfs::material(el, refs, textures)?;
-        let name = match el.attr("id") {
-            Some(id) => id.to_string(),
-            None => format!(
-                "{} bsdf at {}:{}",
-                el.attr("type").unwrap_or("?"),
-                el.at.file.display(),
-                el.at.line
-            ),
-        };
-        self.list.push((name.clone(), m));
-        self.seen.insert(key, name.clone());
-        Ok(name)
+        self.0
+            .add(el, "bsdf", || bsdfs::material(el, refs, textures))
     }
 
     /// Mitsuba's BSDF for a shape without one: diffuse, reflectance 0.5, one-sided.
     fn default_diffuse(&mut self) -> String {
         let name = "default diffuse (Mitsuba's default BSDF)";
-        if !self.list.iter().any(|(n, _)| n == name) {
+        if !self.0.list.iter().any(|(n, _)| n == name) {
             let raw = MaterialRaw::Diffuse {
                 albedo: Rgb::splat(0.5).into(),
             };
-            self.list.push((
+            self.0.list.push((
                 name.to_string(),
                 MaterialDesc {
                     raw,

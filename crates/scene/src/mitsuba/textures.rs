@@ -3,42 +3,21 @@
 //! `lightlab_materials::Texture`); `to_uv` keeps its full 2D affine part (Mitsuba applies the
 //! 4 × 4 matrix's x and y rows to (u, v, ·, 1)).
 
-use super::Refs;
 use super::object::Object;
 use super::xml::Element;
+use super::{Once, Refs};
 use crate::SceneError;
 use crate::desc::{ColourDesc, FilterDesc, TextureDesc, WrapDesc};
-use std::collections::HashMap;
 
-/// Textures in the order first met. Bitmap file names stay relative to the scene file, as the
-/// loader reads them.
+/// The scene's textures. Bitmap file names stay relative to the scene file, as the loader reads
+/// them.
 #[derive(Default)]
-pub(crate) struct Textures {
-    pub list: Vec<(String, TextureDesc)>,
-    /// Element address → texture name.
-    seen: HashMap<usize, String>,
-}
+pub(crate) struct Textures(pub Once<TextureDesc>);
 
 impl Textures {
     /// The name of the texture element `el` (imported on first use).
     pub fn add(&mut self, el: &Element) -> Result<String, SceneError> {
-        let key = el as *const Element as usize;
-        if let Some(name) = self.seen.get(&key) {
-            return Ok(name.clone());
-        }
-        let t = texture(el)?;
-        let name = match el.attr("id") {
-            Some(id) => id.to_string(),
-            None => format!(
-                "{} texture at {}:{}",
-                el.attr("type").unwrap_or("?"),
-                el.at.file.display(),
-                el.at.line
-            ),
-        };
-        self.list.push((name.clone(), t));
-        self.seen.insert(key, name.clone());
-        Ok(name)
+        self.0.add(el, "texture", || texture(el))
     }
 }
 
