@@ -42,6 +42,7 @@ mod diffuse;
 mod fresnel;
 mod microfacet;
 mod phong;
+mod plastic;
 mod rough_conductor;
 mod rough_dielectric;
 mod specular;
@@ -49,6 +50,7 @@ mod surface;
 mod texture;
 
 pub use microfacet::{ALPHA_MIN, Distribution};
+pub use plastic::Plastic;
 pub use surface::{Material, SurfaceBsdf};
 pub use texture::{Bitmap, Filter, Pattern, Texture, TextureSlots, Wrap};
 
@@ -162,6 +164,7 @@ impl BsdfSample {
 /// | `RoughConductor` | `alpha`, `eta`, `k`, `distribution` | GGX or Beckmann, anisotropic α (x along the frame's `s`, y along `t`), height-correlated Smith G2, conductor Fresnel with complex IOR η + ik per channel, VNDF sampling; two-sided |
 /// | `RoughDielectric` | `alpha`, `eta`, `distribution` | Walter et al. 2007 rough glass with GGX (VNDF sampling) or Beckmann (D cos θ sampling), Fresnel choice of reflection or refraction. η = 1 makes the interface invisible and this model degenerate: it then transmits nothing (pbrt-v4 switches to a pass-through; use no surface instead) |
 /// | `Phong` | `kd`, `ks`, `exponent` | modified Phong (Lafortune & Willems 1994), energy-conserving when kd + ks ≤ 1; two-sided |
+/// | `Plastic` | [`Plastic`]: `kd`, `ks`, `eta`, `nonlinear` | a Lambertian base under a smooth dielectric coating (Mitsuba 3's `plastic`): a delta reflection ks·F plus the base seen through the coating; two-sided |
 ///
 /// Roughness below [`ALPHA_MIN`] is raised to it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -198,6 +201,7 @@ pub enum Bsdf {
         ks: Rgb,
         exponent: f32,
     },
+    Plastic(Plastic),
 }
 
 impl Bsdf {
@@ -222,6 +226,7 @@ impl Bsdf {
                 distribution,
             } => RoughDielectric::new(distribution, alpha, eta).eval(wo, wi, mode),
             Bsdf::Phong { kd, ks, exponent } => Phong::new(kd, ks, exponent).eval(wo, wi),
+            Bsdf::Plastic(p) => p.eval(wo, wi),
         };
         e.finite_or_zero()
     }
@@ -258,6 +263,7 @@ impl Bsdf {
                 distribution,
             } => RoughDielectric::new(distribution, alpha, eta).sample(wo, u_lobe, u, mode),
             Bsdf::Phong { kd, ks, exponent } => Phong::new(kd, ks, exponent).sample(wo, u_lobe, u),
+            Bsdf::Plastic(p) => Some(p.sample(wo, u_lobe, u)),
         }?;
         s.is_finite_and_positive().then_some(s)
     }
@@ -283,8 +289,28 @@ impl Bsdf {
                 distribution,
             } => RoughDielectric::new(distribution, alpha, eta).pdf(wo, wi),
             Bsdf::Phong { kd, ks, exponent } => Phong::new(kd, ks, exponent).pdf(wo, wi),
+            Bsdf::Plastic(p) => p.pdf(wo, wi),
         };
         if pdf.is_finite() { pdf } else { 0.0 }
+    }
+
+    /// Probability that [`Bsdf::sample`] takes a Dirac-delta lobe for `wo` (local frame): 1 when
+    /// [`Bsdf::is_delta`], 0 without delta lobes, in between for a BSDF mixing both (`Plastic`).
+    /// `sample` picks a delta lobe exactly when `u_lobe` is below it.
+    #[inline]
+    pub fn delta_probability(&self, wo: Vec3) -> f32 {
+        match self {
+            Bsdf::Plastic(p) => p.specular_probability(wo),
+            _ if self.is_delta() => 1.0,
+            _ => 0.0,
+        }
+    }
+
+    /// Whether some lobes are Dirac deltas and others not, so that a vertex's delta flag depends
+    /// on the sample drawn there.
+    #[inline]
+    pub fn mixes_delta(&self) -> bool {
+        matches!(self, Bsdf::Plastic(_))
     }
 
     /// Whether every lobe is a Dirac delta, so that `eval` and `pdf` are always zero.
@@ -299,14 +325,15 @@ impl Bsdf {
         )
     }
 
-    /// Heckbert class of the material as a whole: `Diffuse` and microfacet surfaces at least as
-    /// rough as [`DIFFUSE_ALPHA`] are `D`, `Mirror`, `Conductor`, `ThinDielectric` and smooth `Dielectric` are `S`, smoother
+    /// Heckbert class of the material as a whole — of what `eval` sees, for a BSDF that mixes
+    /// delta lobes in (`Plastic` is `D`; a path leaving it by its delta lobe records `S` there):
+    /// `Diffuse` and microfacet surfaces at least as rough as [`DIFFUSE_ALPHA`] are `D`, `Mirror`, `Conductor`, `ThinDielectric` and smooth `Dielectric` are `S`, smoother
     /// microfacet surfaces and `Phong` are `G`. A Phong sample still reports
     /// [`LobeClass::Diffuse`] in [`BsdfSample::lobe`] when its diffuse lobe was chosen.
     #[inline]
     pub fn lobe_class(&self) -> LobeClass {
         match self {
-            Bsdf::Diffuse { .. } => LobeClass::Diffuse,
+            Bsdf::Diffuse { .. } | Bsdf::Plastic(_) => LobeClass::Diffuse,
             Bsdf::Mirror { .. }
             | Bsdf::Conductor { .. }
             | Bsdf::ThinDielectric { .. }

@@ -2,7 +2,7 @@
 //! directions to and from the shading frame and rejects bad configurations once, so no `Bsdf`
 //! variant repeats it.
 
-use crate::{Bsdf, BsdfEval, BsdfSample, Texture, TextureSlots};
+use crate::{Bsdf, BsdfEval, BsdfSample, Plastic, Texture, TextureSlots};
 use lightlab_core::{Frame, TransportMode, Vec2, Vec3};
 
 /// A [`Bsdf`] placed at a surface point with shading frame `frame` (`frame.n` = shading normal ns)
@@ -73,7 +73,7 @@ impl Material {
             Bsdf::Diffuse { albedo: c } | Bsdf::Mirror { reflectance: c } => {
                 *c = reflectance.unwrap_or(*c);
             }
-            Bsdf::Phong { kd, ks, .. } => {
+            Bsdf::Phong { kd, ks, .. } | Bsdf::Plastic(Plastic { kd, ks, .. }) => {
                 *kd = reflectance.unwrap_or(*kd);
                 *ks = specular.unwrap_or(*ks);
             }
@@ -167,6 +167,14 @@ impl SurfaceBsdf {
         }
         s.wi = wi;
         Some(s)
+    }
+
+    /// Probability that `sample(wo)` takes a Dirac-delta lobe (see [`Bsdf::delta_probability`]);
+    /// 0 where `wo` is rejected.
+    #[inline]
+    pub fn delta_probability(&self, wo: Vec3) -> f32 {
+        self.local_if_consistent(wo)
+            .map_or(0.0, |w| self.bsdf.delta_probability(w))
     }
 
     /// Solid-angle pdf with which `sample(wo)` yields `wi`, world space.

@@ -1,7 +1,7 @@
 //! Shared test fixtures: parameter sets for every variant, awkward directions, random helpers.
 
 use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
-use lightlab_materials::{Bsdf, Distribution};
+use lightlab_materials::{Bsdf, Distribution, Plastic};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 
@@ -83,6 +83,24 @@ pub fn rough_dielectrics() -> Vec<Bsdf> {
                     eta,
                     distribution,
                 })
+            })
+        })
+        .collect()
+}
+
+/// Smooth plastic with a coloured base and coating factor, linear and nonlinear, on glass-like
+/// coating (η = 1.5) and on a coating less dense than the outside (η = 1/1.5, total internal
+/// reflection beyond 42°).
+pub fn plastics() -> Vec<Bsdf> {
+    ETAS.iter()
+        .flat_map(|&eta| {
+            [false, true].map(|nonlinear| {
+                Bsdf::Plastic(Plastic::new(
+                    Rgb::new(0.7, 0.4, 0.2),
+                    Rgb::new(1.0, 0.8, 0.9),
+                    eta,
+                    nonlinear,
+                ))
             })
         })
         .collect()

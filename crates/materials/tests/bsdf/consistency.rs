@@ -4,7 +4,7 @@
 
 use crate::common::*;
 use lightlab_core::{TransportMode, Vec3};
-use lightlab_materials::{Bsdf, LobeClass};
+use lightlab_materials::{Bsdf, BsdfSample, LobeClass};
 use rand::RngExt;
 
 const REL: f32 = 1e-3;
@@ -15,14 +15,21 @@ fn check_sample_consistency(bsdf: Bsdf, wos: &[Vec3], seed: u64) {
             let mut rng = rng(seed);
             let n = 4000;
             let mut found = 0;
+            let p_delta = bsdf.delta_probability(wo);
             for _ in 0..n {
-                let Some(s) = bsdf.sample(wo, rng.random(), uniform2(&mut rng), mode) else {
+                let u_lobe: f32 = rng.random();
+                let Some(s) = bsdf.sample(wo, u_lobe, uniform2(&mut rng), mode) else {
                     continue;
                 };
                 found += 1;
                 let ctx = || format!("{bsdf:?}, wo {wo}, {mode:?}, wi {}", s.wi);
                 assert!((s.wi.length() - 1.0).abs() < 1e-4, "{}: |wi| != 1", ctx());
-                assert!(!s.delta, "{}: delta sample from a non-delta BSDF", ctx());
+                // A delta lobe is taken exactly when u_lobe < delta_probability(wo).
+                assert_eq!(s.delta, u_lobe < p_delta, "{}: P = {p_delta}", ctx());
+                if s.delta {
+                    check_mixed_delta_sample(bsdf, wo, &s, p_delta);
+                    continue;
+                }
                 assert_eq!(s.transmission, s.wi.z * wo.z < 0.0, "{}", ctx());
                 let weight = s.f * (s.wi.z.abs() / s.pdf);
                 assert_rgb_rel(s.weight, weight, REL, &|| format!("{}: weight", ctx()));
@@ -54,6 +61,27 @@ fn check_sample_consistency(bsdf: Bsdf, wos: &[Vec3], seed: u64) {
     }
 }
 
+/// The delta sample of a BSDF that mixes delta and non-delta lobes: the mirror direction,
+/// invisible to eval and pdf, with the selection probability as its pdf and
+/// weight = f·|cos θi| / pdf.
+fn check_mixed_delta_sample(bsdf: Bsdf, wo: Vec3, s: &BsdfSample, p_delta: f32) {
+    let ctx = || format!("{bsdf:?}, wo {wo}, delta wi {}", s.wi);
+    assert!(
+        bsdf.mixes_delta() && s.lobe == LobeClass::Specular,
+        "{}",
+        ctx()
+    );
+    assert!(
+        (s.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6,
+        "{}",
+        ctx()
+    );
+    assert_eq!(s.pdf, p_delta, "{}", ctx());
+    assert_eq!(bsdf.pdf(wo, s.wi), bsdf.eval(wo, s.wi, MODES[0]).pdf_fwd);
+    let weight = s.f * (s.wi.z.abs() / s.pdf);
+    assert_rgb_rel(s.weight, weight, REL, &|| format!("{}: weight", ctx()));
+}
+
 #[test]
 fn diffuse_samples_agree_with_eval_and_pdf() {
     check_sample_consistency(diffuse(), &wos_both_sides(), 1);
@@ -77,6 +105,14 @@ fn rough_dielectric_samples_agree_with_eval_and_pdf() {
 fn phong_samples_agree_with_eval_and_pdf() {
     for bsdf in phongs() {
         check_sample_consistency(bsdf, &wos_both_sides(), 4);
+    }
+}
+
+#[test]
+fn plastic_samples_agree_with_eval_and_pdf() {
+    for bsdf in plastics() {
+        assert!(bsdf.mixes_delta() && !bsdf.is_delta());
+        check_sample_consistency(bsdf, &wos_both_sides(), 7);
     }
 }
 

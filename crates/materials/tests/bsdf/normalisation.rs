@@ -114,7 +114,7 @@ fn success_probability(bsdf: Bsdf, wo: Vec3, seed: u64) -> f64 {
                 uniform2(&mut rng),
                 TransportMode::Radiance,
             )
-            .is_some()
+            .is_some_and(|s| !s.delta)
         })
         .count();
     hits as f64 / N as f64
@@ -138,6 +138,7 @@ fn pdf_integrates_to_the_probability_that_sampling_succeeds() {
     let mut bsdfs = rough_conductors();
     bsdfs.extend(rough_dielectrics());
     bsdfs.extend(phongs());
+    bsdfs.extend(plastics());
     for bsdf in bsdfs {
         for wo in wos_both_sides() {
             let est = pdf_integral(bsdf, wo, 22);

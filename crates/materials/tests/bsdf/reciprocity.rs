@@ -77,6 +77,13 @@ fn phong_is_reciprocal() {
 }
 
 #[test]
+fn plastic_is_reciprocal() {
+    for bsdf in plastics() {
+        check_reciprocity(bsdf, 34, false);
+    }
+}
+
+#[test]
 fn rough_dielectric_reflection_is_reciprocal() {
     for bsdf in rough_dielectrics() {
         check_reciprocity(bsdf, 34, false);
@@ -98,6 +105,7 @@ fn importance_mode_is_the_adjoint_of_radiance_mode() {
     bsdfs.extend(rough_conductors());
     bsdfs.extend(rough_dielectrics());
     bsdfs.extend(phongs());
+    bsdfs.extend(plastics());
     for bsdf in bsdfs {
         for (wo, wi) in pairs(bsdf, 36) {
             let adjoint = bsdf.eval(wo, wi, TransportMode::Importance).f;

@@ -4,7 +4,7 @@
 
 use crate::common::*;
 use lightlab_core::{Rgb, Vec2, Vec3};
-use lightlab_materials::Bsdf;
+use lightlab_materials::{Bsdf, Plastic};
 
 fn extreme_bsdfs() -> Vec<Bsdf> {
     let alphas = [
@@ -53,6 +53,17 @@ fn extreme_bsdfs() -> Vec<Bsdf> {
             ks: Rgb::BLACK,
             exponent,
         });
+    }
+    for eta in etas {
+        for (kd, ks) in [
+            (Rgb::WHITE, Rgb::WHITE),
+            (Rgb::BLACK, Rgb::WHITE),
+            (Rgb::BLACK, Rgb::BLACK),
+        ] {
+            v.extend(
+                [false, true].map(|nonlinear| Bsdf::Plastic(Plastic::new(kd, ks, eta, nonlinear))),
+            );
+        }
     }
     v
 }

@@ -33,6 +33,7 @@ fn test_bsdfs() -> Vec<Bsdf> {
             distribution: Distribution::Beckmann,
         },
         phong(20.0),
+        plastics()[0],
     ]
 }
 
@@ -216,6 +217,7 @@ fn one_sided_surfaces_are_black_from_behind_and_unchanged_in_front() {
         mirror(),
         rough_conductor(Vec2::splat(0.3)),
         phong(20.0),
+        plastics()[0],
     ] {
         let material = Material {
             one_sided: true,
