@@ -87,6 +87,11 @@ fn albedo_out_of_range() {
         3,
         &["kd + ks", "≤ 1"],
     );
+    assert_error(
+        "materials: { \"a\": Plastic(kd: (0.5, 0.5, 0.5), ks: (1.5, 1, 1)) },",
+        3,
+        &["Plastic ks", "[0, 1]"],
+    );
 }
 
 #[test]
@@ -105,6 +110,11 @@ fn ior_not_positive() {
         "materials: { \"g\": RoughDielectric(roughness: Isotropic(0.1), ior: 1) },",
         3,
         &["ior", "≠ 1"],
+    );
+    assert_error(
+        "materials: { \"p\": Plastic(kd: (0.5, 0.5, 0.5), ior: 0) },",
+        3,
+        &["Plastic ior", "> 0"],
     );
 }
 

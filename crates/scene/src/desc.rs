@@ -204,6 +204,20 @@ pub enum MaterialRaw {
         ks: ColourDesc,
         exponent: f32,
     },
+    /// Smooth plastic (Mitsuba 3's `plastic`): a Lambertian base of albedo `kd` in [0, 1] under a
+    /// smooth dielectric coating of index `ior` relative to the outside (> 0; default 1.5), whose
+    /// delta reflection is scaled by `ks` in [0, 1] (default (1, 1, 1), the physical coating).
+    /// `nonlinear: true` lets the base's albedo enter every internal reflection, darkening and
+    /// saturating colours; the default keeps kd's hue. Two-sided.
+    Plastic {
+        kd: ColourDesc,
+        #[serde(default = "white")]
+        ks: ColourDesc,
+        #[serde(default = "glass_ior")]
+        ior: f32,
+        #[serde(default)]
+        nonlinear: bool,
+    },
 }
 
 /// A colour parameter: a constant `(r, g, b)`, or the name of a texture in the scene's `textures`
@@ -421,6 +435,11 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
                             .into(),
                     );
                 }
+            }
+            MaterialRaw::Plastic { kd, ks, ior, .. } => {
+                unit_colour("Plastic kd", kd)?;
+                unit_colour("Plastic ks", ks)?;
+                positive("Plastic ior", *ior)?;
             }
             MaterialRaw::Phong { kd, ks, exponent } => {
                 unit_colour("Phong kd", kd)?;

@@ -16,7 +16,7 @@ use crate::{Camera, EnvMap, Light, Scene, SceneError};
 use glam::{DMat3, DQuat, DVec3, Mat3, Vec2, Vec3};
 use lightlab_core::Rgb;
 use lightlab_geometry::{Accel, Geometry, NO_LIGHT, Shape, Sphere, TriangleMesh};
-use lightlab_materials::{Bsdf, Distribution, Material};
+use lightlab_materials::{Bsdf, Distribution, Material, Plastic};
 use std::path::Path;
 
 /// Loads and builds the scene in `path`: RON, or a Mitsuba 3 XML file (`.xml`, imported with its
@@ -337,6 +337,12 @@ pub(crate) fn bsdf(m: &MaterialDesc) -> Bsdf {
             ks: c(ks),
             exponent,
         },
+        MaterialRaw::Plastic {
+            ref kd,
+            ref ks,
+            ior,
+            nonlinear,
+        } => Bsdf::Plastic(Plastic::new(c(kd), c(ks), ior, nonlinear)),
     }
 }
 

@@ -108,6 +108,10 @@ pub(crate) fn material(
             reflectance: id(slot("Mirror reflectance", c)?),
             specular: None,
         },
+        MaterialRaw::Plastic { kd, ks, .. } => TextureSlots {
+            reflectance: id(slot("Plastic kd", kd)?),
+            specular: id(slot("Plastic ks", ks)?),
+        },
         MaterialRaw::Phong { kd, ks, .. } => {
             let (d, s) = (slot("Phong kd", kd)?, slot("Phong ks", ks)?);
             let largest = |c: &ColourDesc, s: Option<(u32, f32)>| {

@@ -139,7 +139,11 @@ fn malformed_xml_and_unknown_parameters_are_located() {
 #[test]
 fn unsupported_plugins_are_errors_naming_what_is_supported() {
     for (name, body, expect) in [
-        ("plastic", "<bsdf type=\"plastic\"/>", "BSDF type 'plastic'"),
+        (
+            "roughplastic",
+            "<bsdf type=\"roughplastic\"/>",
+            "BSDF type 'roughplastic'",
+        ),
         (
             "shapegroup",
             "<shape type=\"shapegroup\"/>",
@@ -517,8 +521,40 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
             <bsdf type="dielectric" id="inside"><float name="int_ior" value="1"/><float name="ext_ior" value="1.5"/></bsdf>
             <bsdf type="roughconductor" id="default-rough"/>
             <bsdf type="roughdielectric" id="frosted"><string name="distribution" value="ggx"/>
-                <float name="alpha" value="0.2"/></bsdf>"#
+                <float name="alpha" value="0.2"/></bsdf>
+            <bsdf type="plastic" id="plastic"/>
+            <bsdf type="twosided" id="red-plastic"><bsdf type="plastic">
+                <rgb name="diffuse_reflectance" value="0.8, 0.1, 0.1"/><rgb name="specular_reflectance" value="0.5"/>
+                <float name="int_ior" value="1.9"/><float name="ext_ior" value="1.0"/><boolean name="nonlinear" value="true"/>
+            </bsdf></bsdf>"#
         ),
+    );
+    // Mitsuba's plastic defaults: diffuse 0.5, specular 1, polypropylene (1.49) in air, linear;
+    // one-sided unless wrapped.
+    let (plastic, one_sided) = material(&i, "plastic");
+    let MaterialRaw::Plastic {
+        kd,
+        ks,
+        ior,
+        nonlinear,
+    } = plastic
+    else {
+        panic!("{plastic:?}")
+    };
+    assert!(one_sided && !nonlinear);
+    assert_eq!((kd, ks), (Rgb::splat(0.5).into(), Rgb::WHITE.into()));
+    assert!((ior - 1.49 / 1.000277).abs() < 1e-5, "{ior}");
+    assert_eq!(
+        material(&i, "red-plastic"),
+        (
+            MaterialRaw::Plastic {
+                kd: Rgb::new(0.8, 0.1, 0.1).into(),
+                ks: Rgb::splat(0.5).into(),
+                ior: 1.9,
+                nonlinear: true
+            },
+            false
+        )
     );
     assert_eq!(
         material(&i, "d"),

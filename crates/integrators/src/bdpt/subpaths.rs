@@ -110,6 +110,7 @@ impl Visitor for Subpath<'_> {
     fn scattered(&mut self, v: &PathVertex, s: &BsdfSample) {
         let (_, pdf_rev_w) = v.step_densities(s);
         let n = self.path.len();
+        self.path[n - 1].delta = s.delta;
         self.path[n - 2].pdf_rev = v.convert_density(pdf_rev_w, &self.path[n - 2]);
     }
 

@@ -2,6 +2,8 @@
 //! written light first, with one symbol per scattering vertex — `D` diffuse, `G` glossy, `S`
 //! specular — as the material's lobe class gives it (`Bsdf::lobe_class`; microfacet surfaces
 //! at least as rough as `lightlab_materials::DIFFUSE_ALPHA` count as `D`, smoother ones as `G`).
+//! A BSDF that mixes a delta lobe into a non-delta one (plastic) is recorded per path: `S` where
+//! the path left it by the delta lobe, its non-delta class otherwise.
 
 use lightlab_materials::LobeClass;
 
@@ -39,6 +41,18 @@ impl PathClass {
             out.bits |= Self::code(c) << (2 * self.len);
         }
         out.len = self.len.saturating_add(1);
+        out
+    }
+
+    /// This class with its last vertex recorded as `c` instead (a vertex whose BSDF mixes delta and
+    /// non-delta lobes, left by its delta lobe); unchanged if empty or past [`MAX_RECORDED`].
+    #[inline]
+    pub fn with_last(self, c: LobeClass) -> PathClass {
+        let mut out = self;
+        if (1..=MAX_RECORDED).contains(&self.len) {
+            let shift = 2 * (self.len - 1);
+            out.bits = (self.bits & !(3 << shift)) | Self::code(c) << shift;
+        }
         out
     }
 

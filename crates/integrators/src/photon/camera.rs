@@ -13,7 +13,7 @@ use crate::nee::{Competition, emission_found, environment_found, sample_direct};
 use crate::paths::PathClass;
 use crate::render::{Counters, Technique};
 use crate::sink::Sink;
-use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, from_camera};
+use crate::walk::{Arrival, Directions, Lobes, PathVertex, Visitor, Walk, from_camera};
 use glam::Vec2;
 use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_materials::LobeClass;
@@ -67,6 +67,28 @@ impl VisiblePoint {
             depth: v.depth,
             eye: arrival.class,
         }
+    }
+
+    /// The visible point to make at surface vertex `v` — or `None` where the path goes on
+    /// through a delta lobe. A BSDF that mixes a delta lobe into a non-delta one (plastic) has
+    /// its lobe chosen here, with one sample from `sampler`: with the delta probability P the
+    /// path goes on (the walk must then sample [`Lobes::Delta`], whose weight divides by P);
+    /// otherwise the point gathers the non-delta part with throughput β/(1 − P).
+    #[inline]
+    pub(crate) fn at_or_delta<S: Sampler>(
+        v: &PathVertex,
+        arrival: &Arrival,
+        sampler: &mut S,
+    ) -> Option<VisiblePoint> {
+        let mut vp = VisiblePoint::at(v, arrival);
+        if vp.gather.bsdf.bsdf.mixes_delta() {
+            let p = vp.gather.bsdf.delta_probability(v.wo);
+            if sampler.next_1d() < p {
+                return None;
+            }
+            vp.beta /= 1.0 - p;
+        }
+        Some(vp)
     }
 
     /// Range of photon bounce counts k whose paths through this point have between `min` and `max`
@@ -148,6 +170,7 @@ pub fn walk<S: Sampler, T: Sampler>(
             Competition::None
         },
         found: None,
+        delta_only: false,
     };
     from_camera(scene, &walk, film, sampler, &mut visitor, counters);
     visitor.found
@@ -163,6 +186,8 @@ struct ToVisiblePoint<'a, 'r, T> {
     /// Emission after a glossy vertex competes with next-event estimation there.
     competition: Competition,
     found: Option<VisiblePoint>,
+    /// The path chose a delta lobe at the vertex last visited, where it did not stop.
+    delta_only: bool,
 }
 
 impl<T: Sampler> Visitor for ToVisiblePoint<'_, '_, T> {
@@ -171,7 +196,7 @@ impl<T: Sampler> Visitor for ToVisiblePoint<'_, '_, T> {
         &mut self,
         v: &PathVertex,
         arrival: &Arrival,
-        _sampler: &mut S,
+        sampler: &mut S,
         counters: &mut Counters,
     ) -> bool {
         let (scene, cfg) = (self.scene, self.cfg);
@@ -210,10 +235,20 @@ impl<T: Sampler> Visitor for ToVisiblePoint<'_, '_, T> {
                 .add_eye_or_count(&v.class, v.beta * d.value * w, Technique::Camera, counters);
         }
         if gathers {
-            self.found = Some(VisiblePoint::at(v, arrival));
-            return false;
+            self.found = VisiblePoint::at_or_delta(v, arrival, sampler);
+            self.delta_only = self.found.is_none();
+            return self.delta_only;
         }
         true
+    }
+
+    #[inline]
+    fn lobes(&mut self, _v: &PathVertex) -> Lobes {
+        if std::mem::take(&mut self.delta_only) {
+            Lobes::Delta
+        } else {
+            Lobes::All
+        }
     }
 
     #[inline]

@@ -40,7 +40,7 @@ use crate::passes::{PassSpec, Schedule, run_passes};
 use crate::paths::{PathClass, Router};
 use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::sink::Sink;
-use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, continue_walk};
+use crate::walk::{Arrival, Directions, Lobes, PathVertex, Visitor, Walk, continue_walk};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_samplers::{Independent, Sampler};
@@ -139,6 +139,8 @@ impl PhotonMapper {
             map,
             search,
             l,
+            origin_depth: vp.vertex.depth,
+            delta_only: false,
         };
         for _ in 0..rays {
             continue_walk(scene, &walk, &from, sampler, &mut gather, counters);
@@ -152,6 +154,10 @@ struct Gather<'a, 'r> {
     map: &'a PhotonMap,
     search: Search,
     l: &'a mut Sink<'r>,
+    /// Depth of the visible point the rays leave: it stands for its non-delta lobes only.
+    origin_depth: u32,
+    /// The ray chose a delta lobe at the vertex last visited (see `VisiblePoint::at_or_delta`).
+    delta_only: bool,
 }
 
 impl Visitor for Gather<'_, '_> {
@@ -160,14 +166,17 @@ impl Visitor for Gather<'_, '_> {
         &mut self,
         v: &PathVertex,
         arrival: &Arrival,
-        _sampler: &mut S,
+        sampler: &mut S,
         counters: &mut Counters,
     ) -> bool {
         if v.delta {
             return true;
         }
         let c = &self.pm.config;
-        let y = VisiblePoint::at(v, arrival);
+        let Some(y) = VisiblePoint::at_or_delta(v, arrival, sampler) else {
+            self.delta_only = true;
+            return true;
+        };
         let (lo, hi) = y.photon_bounces(c.min_bounces, c.max_bounces.unwrap_or(u32::MAX));
         let l = &mut *self.l;
         self.map
@@ -177,6 +186,17 @@ impl Visitor for Gather<'_, '_> {
                 }
             });
         false
+    }
+
+    #[inline]
+    fn lobes(&mut self, v: &PathVertex) -> Lobes {
+        if v.depth == self.origin_depth {
+            Lobes::NonDelta
+        } else if std::mem::take(&mut self.delta_only) {
+            Lobes::Delta
+        } else {
+            Lobes::All
+        }
     }
 }
 

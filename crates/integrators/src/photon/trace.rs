@@ -13,7 +13,7 @@
 
 use crate::paths::PathClass;
 use crate::render::{Counters, Technique};
-use crate::walk::{self, Arrival, Directions, PathVertex, Visitor, Walk, from_light};
+use crate::walk::{self, Arrival, Directions, Lobes, PathVertex, Visitor, Walk, from_light};
 use glam::Vec3;
 use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_materials::LobeClass;
@@ -215,6 +215,7 @@ fn trace_one(
         keep: how.keep,
         scale,
         photons,
+        delta_only: false,
     };
     from_light(scene, &walk, &mut sampler, &mut deposit, counters);
 }
@@ -225,6 +226,8 @@ struct Deposit<'a> {
     /// 1 / the number of photon paths of the map.
     scale: f32,
     photons: &'a mut Vec<Photon>,
+    /// A caustic walk chose the delta lobe at the vertex last visited.
+    delta_only: bool,
 }
 
 impl Visitor for Deposit<'_> {
@@ -233,7 +236,7 @@ impl Visitor for Deposit<'_> {
         &mut self,
         v: &PathVertex,
         _arrival: &Arrival,
-        _sampler: &mut S,
+        sampler: &mut S,
         counters: &mut Counters,
     ) -> bool {
         if v.delta {
@@ -254,8 +257,27 @@ impl Visitor for Deposit<'_> {
                 if photon.is_caustic() {
                     self.photons.push(photon);
                 }
-                false
+                // A caustic path may go on through a delta lobe mixed into this surface's BSDF
+                // (plastic's coating): chosen with its probability P, so that the walk's weight,
+                // which divides by P, keeps the estimate unbiased.
+                let sb = v.sb.as_ref().expect("photons land on surfaces");
+                let specular_so_far =
+                    (0..v.class.len() - 1).all(|i| v.class.get(i) == LobeClass::Specular);
+                self.delta_only = specular_so_far
+                    && !v.class.is_long()
+                    && sb.bsdf.mixes_delta()
+                    && sampler.next_1d() < sb.delta_probability(v.wo);
+                self.delta_only
             }
+        }
+    }
+
+    #[inline]
+    fn lobes(&mut self, _v: &PathVertex) -> Lobes {
+        if std::mem::take(&mut self.delta_only) {
+            Lobes::Delta
+        } else {
+            Lobes::All
         }
     }
 }

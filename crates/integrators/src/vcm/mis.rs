@@ -103,7 +103,7 @@ impl Techniques {
     /// vertex from its subpath's origin.
     #[inline]
     pub fn merges_at(&self, v: &PathVertex) -> bool {
-        self.merge && v.depth >= 1 && v.on_surface() && !v.delta && v.sb.is_some()
+        self.merge && v.depth >= 1 && v.on_surface() && v.sb.is_some_and(|sb| !sb.bsdf.is_delta())
     }
 
     /// The quantities of every vertex of a subpath (`light`: a light subpath, whose origin a
@@ -137,7 +137,11 @@ impl Techniques {
                     0.0
                 };
                 let q_prev = if prev.delta { 0.0 } else { qp.d_vcm }
-                    + if self.merges_at(prev) { self.eta } else { 0.0 }
+                    + if !prev.delta && self.merges_at(prev) {
+                        self.eta
+                    } else {
+                        0.0
+                    }
                     + before;
                 // Connections with s ≥ 1 are the only ones before a camera vertex or a light
                 // vertex past the origin; before the first camera vertex it is light tracing's

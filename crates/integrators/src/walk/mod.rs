@@ -22,6 +22,7 @@ use camera::camera_ray;
 pub(crate) use camera::connect_to_lens;
 pub(crate) use emit::emit;
 pub(crate) use scatter::Directions;
+
 pub(crate) use vertex::{Kind, PathVertex, geometry_term, unoccluded};
 
 use crate::paths::PathClass;
@@ -29,7 +30,7 @@ use crate::render::{Counters, Technique};
 use glam::{Vec2, Vec3};
 use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_geometry::spawn_ray;
-use lightlab_materials::{BsdfSample, SurfaceBsdf};
+use lightlab_materials::{BsdfSample, LobeClass, SurfaceBsdf};
 use lightlab_samplers::Sampler;
 use lightlab_scene::Scene;
 use roulette::Roulette;
@@ -63,6 +64,21 @@ pub(crate) struct Arrival {
     pub class: PathClass,
 }
 
+/// The lobes a visitor lets the walk sample at a vertex whose BSDF mixes delta and non-delta
+/// lobes (plastic), when the visitor itself estimates the non-delta part there (a photon
+/// gather).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Lobes {
+    All,
+    /// The delta lobes alone: the visitor chose them with their probability P
+    /// (`SurfaceBsdf::delta_probability`), so the sample's weight f·|cos|/P is already the
+    /// estimator's. The walk draws its lobe choice in [0, P), which selects them.
+    Delta,
+    /// A delta sample ends the walk (unbiased for the non-delta part: the sample's weight divides
+    /// by the non-delta lobes' own probability).
+    NonDelta,
+}
+
 /// What an integrator does along a walk.
 pub(crate) trait Visitor {
     /// Whether the walk gives its vertices their area densities (`pdf_fwd`; the camera ray's
@@ -82,6 +98,12 @@ pub(crate) trait Visitor {
         sampler: &mut S,
         counters: &mut Counters,
     ) -> bool;
+
+    /// Which lobes the walk may sample at `v`, asked just before it scatters there.
+    #[inline]
+    fn lobes(&mut self, _v: &PathVertex) -> Lobes {
+        Lobes::All
+    }
 
     /// The walk scattered from `v` (the vertex last visited) into `s`, before roulette.
     #[inline]
@@ -237,6 +259,7 @@ fn trace<S: Sampler, V: Visitor>(
             beta,
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
+            // Until the walk samples here: whether every lobe is a delta.
             delta: bsdf.is_delta(),
             infinite: false,
             depth: prev.depth + 1,
@@ -260,6 +283,7 @@ fn trace<S: Sampler, V: Visitor>(
             return;
         };
         (ray, arrival) = next;
+        v.delta = arrival.delta;
         prev = v;
     }
 }
@@ -279,7 +303,15 @@ fn scatter<S: Sampler, V: Visitor>(
 ) -> Option<(Ray, Arrival)> {
     let sb = v.sb.as_ref()?;
     let (u_lobe, u_dir, u_rr) = (sampler.next_1d(), sampler.next_2d(), sampler.next_1d());
+    let lobes = visitor.lobes(v);
+    let u_lobe = match lobes {
+        Lobes::Delta => u_lobe * sb.delta_probability(v.wo),
+        _ => u_lobe,
+    };
     let s = scatter::sample(sb, v.wo, u_lobe, u_dir, walk.mode, walk.directions)?;
+    if s.delta && lobes == Lobes::NonDelta {
+        return None;
+    }
     if s.weight.is_black() {
         return None;
     }
@@ -301,7 +333,11 @@ fn scatter<S: Sampler, V: Visitor>(
             s.pdf
         },
         delta: s.delta,
-        class: v.class,
+        class: if s.delta && sb.bsdf.mixes_delta() {
+            v.class.with_last(LobeClass::Specular)
+        } else {
+            v.class
+        },
     };
     Some((spawn_ray(v.p, v.p_error, v.ng, s.wi), arrival))
 }

@@ -26,12 +26,21 @@ pub(crate) fn sample(
     directions: Directions,
 ) -> Option<BsdfSample> {
     match directions {
-        Directions::Uniform if !sb.bsdf.is_delta() => Some(uniform(sb, wo, u_dir, mode)),
+        Directions::Uniform if !sb.bsdf.is_delta() => {
+            // A BSDF mixing in a delta lobe keeps it, chosen as the BSDF chooses it.
+            let p_delta = sb.delta_probability(wo);
+            if u_lobe < p_delta {
+                sb.sample(wo, u_lobe, u_dir, mode)
+            } else {
+                Some(uniform(sb, wo, u_dir, mode, 1.0 - p_delta))
+            }
+        }
         _ => sb.sample(wo, u_lobe, u_dir, mode),
     }
 }
 
-fn uniform(sb: &SurfaceBsdf, wo: Vec3, u: Vec2, mode: TransportMode) -> BsdfSample {
+/// A uniform direction, taken with probability `p_choice`.
+fn uniform(sb: &SurfaceBsdf, wo: Vec3, u: Vec2, mode: TransportMode, p_choice: f32) -> BsdfSample {
     let (local, pdf) = if matches!(sb.bsdf, Bsdf::RoughDielectric { .. }) {
         (square_to_uniform_sphere(u), INV_4PI)
     } else {
@@ -41,6 +50,7 @@ fn uniform(sb: &SurfaceBsdf, wo: Vec3, u: Vec2, mode: TransportMode) -> BsdfSamp
         }
         (d, INV_2PI)
     };
+    let pdf = pdf * p_choice;
     let wi = sb.frame.to_world(local);
     let f = sb.eval(wo, wi, mode).f;
     let transmission = wi.dot(sb.ng) * wo.dot(sb.ng) < 0.0;

@@ -48,7 +48,10 @@ pub(crate) struct PathVertex {
     /// Area density of this vertex had the other subpath generated it (set once the next vertex
     /// exists; bidirectional methods only).
     pub pdf_rev: f32,
-    /// The surface scatters only into Dirac deltas (mirror, smooth dielectric).
+    /// The walk left this vertex by a Dirac-delta lobe (mirror, smooth dielectric, plastic's
+    /// coating) — per path, for a BSDF that mixes delta and non-delta lobes; before the walk
+    /// samples here, whether every lobe is a delta. Whether the vertex can be connected to or
+    /// merged at is the BSDF's business ([`PathVertex::connectible`]).
     pub delta: bool,
     /// An emitter at infinity (environment): `ng` is the direction its light travels.
     pub infinite: bool,
@@ -103,7 +106,7 @@ impl PathVertex {
             Kind::Light { light } => {
                 !self.infinite || !matches!(scene.lights[light as usize], Light::Environment { .. })
             }
-            Kind::Surface => !self.delta,
+            Kind::Surface => self.sb.is_some_and(|sb| !sb.bsdf.is_delta()),
         }
     }
 

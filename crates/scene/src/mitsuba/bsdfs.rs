@@ -73,18 +73,18 @@ pub(crate) fn material(
             )
         }
         "dielectric" => {
-            let ior = relative_ior(&o)?;
+            let ior = relative_ior(&o, "bk7")?;
             unit_scales(&o)?;
             (MaterialRaw::Dielectric { ior }, false)
         }
         "thindielectric" => {
-            let ior = relative_ior(&o)?;
+            let ior = relative_ior(&o, "bk7")?;
             unit_scales(&o)?;
             (MaterialRaw::ThinDielectric { ior }, false)
         }
         "roughdielectric" => {
             let (roughness, distribution) = roughness(&o)?;
-            let ior = relative_ior(&o)?;
+            let ior = relative_ior(&o, "bk7")?;
             unit_scales(&o)?;
             (
                 MaterialRaw::RoughDielectric {
@@ -95,10 +95,24 @@ pub(crate) fn material(
                 false,
             )
         }
+        "plastic" => {
+            let ior = relative_ior(&o, "polypropylene")?;
+            (
+                MaterialRaw::Plastic {
+                    kd: colour(&o, "diffuse_reflectance", refs, textures)?
+                        .unwrap_or(ColourDesc::Constant(Rgb::splat(0.5))),
+                    ks: colour(&o, "specular_reflectance", refs, textures)?
+                        .unwrap_or(ColourDesc::Constant(Rgb::WHITE)),
+                    ior,
+                    nonlinear: o.boolean("nonlinear", false)?,
+                },
+                true,
+            )
+        }
         other => {
             return Err(o.error(format!(
                 "BSDF type '{other}' is not imported (supported: diffuse, conductor, \
-                 roughconductor, dielectric, thindielectric, roughdielectric, twosided)"
+                 roughconductor, dielectric, thindielectric, roughdielectric, plastic, twosided)"
             )));
         }
     };
@@ -170,8 +184,9 @@ fn roughness(o: &Object) -> Result<(Roughness, Microfacets), SceneError> {
     Ok((r, distribution))
 }
 
-/// `int_ior / ext_ior`, each a number or one of Mitsuba's named media (defaults bk7 and air).
-fn relative_ior(o: &Object) -> Result<f32, SceneError> {
+/// `int_ior / ext_ior`, each a number or one of Mitsuba's named media (defaults `int_default` and
+/// air).
+fn relative_ior(o: &Object, int_default: &str) -> Result<f32, SceneError> {
     let ior = |name: &str, default: &str| -> Result<f64, SceneError> {
         if matches!(o.tag_of(name), Some("float" | "integer"))
             && let Some(x) = o.float(name)?
@@ -194,7 +209,7 @@ fn relative_ior(o: &Object) -> Result<f32, SceneError> {
                 ))
             })
     };
-    let (int, ext) = (ior("int_ior", "bk7")?, ior("ext_ior", "air")?);
+    let (int, ext) = (ior("int_ior", int_default)?, ior("ext_ior", "air")?);
     if !(int > 0.0 && ext > 0.0) {
         return Err(o.error(format!(
             "int_ior and ext_ior must be > 0, got {int} and {ext}"
