@@ -45,12 +45,14 @@ mod phong;
 mod plastic;
 mod rough_conductor;
 mod rough_dielectric;
+mod rough_plastic;
 mod specular;
 mod surface;
 mod texture;
 
 pub use microfacet::{ALPHA_MIN, Distribution};
 pub use plastic::Plastic;
+pub use rough_plastic::{Coating, RoughPlastic};
 pub use surface::{Material, SurfaceBsdf};
 pub use texture::{Bitmap, Filter, Pattern, Texture, TextureSlots, Wrap};
 
@@ -165,6 +167,7 @@ impl BsdfSample {
 /// | `RoughDielectric` | `alpha`, `eta`, `distribution` | Walter et al. 2007 rough glass with GGX (VNDF sampling) or Beckmann (D cos θ sampling), Fresnel choice of reflection or refraction. η = 1 makes the interface invisible and this model degenerate: it then transmits nothing (pbrt-v4 switches to a pass-through; use no surface instead) |
 /// | `Phong` | `kd`, `ks`, `exponent` | modified Phong (Lafortune & Willems 1994), energy-conserving when kd + ks ≤ 1; two-sided |
 /// | `Plastic` | [`Plastic`]: `kd`, `ks`, `eta`, `nonlinear` | a Lambertian base under a smooth dielectric coating (Mitsuba 3's `plastic`): a delta reflection ks·F plus the base seen through the coating; two-sided |
+/// | `RoughPlastic` | [`RoughPlastic`]: `kd`, `ks`, `nonlinear`, [`Coating`] (distribution, isotropic α, `eta`) | the base under a rough dielectric coating (Mitsuba 3's `roughplastic`): microfacet reflection ks·F·D·G2 plus the base seen through the coating's tabulated transmittance; two-sided |
 ///
 /// Roughness below [`ALPHA_MIN`] is raised to it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -202,6 +205,7 @@ pub enum Bsdf {
         exponent: f32,
     },
     Plastic(Plastic),
+    RoughPlastic(RoughPlastic),
 }
 
 impl Bsdf {
@@ -227,6 +231,7 @@ impl Bsdf {
             } => RoughDielectric::new(distribution, alpha, eta).eval(wo, wi, mode),
             Bsdf::Phong { kd, ks, exponent } => Phong::new(kd, ks, exponent).eval(wo, wi),
             Bsdf::Plastic(p) => p.eval(wo, wi),
+            Bsdf::RoughPlastic(p) => p.eval(wo, wi),
         };
         e.finite_or_zero()
     }
@@ -264,6 +269,7 @@ impl Bsdf {
             } => RoughDielectric::new(distribution, alpha, eta).sample(wo, u_lobe, u, mode),
             Bsdf::Phong { kd, ks, exponent } => Phong::new(kd, ks, exponent).sample(wo, u_lobe, u),
             Bsdf::Plastic(p) => Some(p.sample(wo, u_lobe, u)),
+            Bsdf::RoughPlastic(p) => p.sample(wo, u_lobe, u),
         }?;
         s.is_finite_and_positive().then_some(s)
     }
@@ -290,6 +296,7 @@ impl Bsdf {
             } => RoughDielectric::new(distribution, alpha, eta).pdf(wo, wi),
             Bsdf::Phong { kd, ks, exponent } => Phong::new(kd, ks, exponent).pdf(wo, wi),
             Bsdf::Plastic(p) => p.pdf(wo, wi),
+            Bsdf::RoughPlastic(p) => p.pdf(wo, wi),
         };
         if pdf.is_finite() { pdf } else { 0.0 }
     }
@@ -326,7 +333,9 @@ impl Bsdf {
     }
 
     /// Heckbert class of the material as a whole — of what `eval` sees, for a BSDF that mixes
-    /// delta lobes in (`Plastic` is `D`; a path leaving it by its delta lobe records `S` there):
+    /// delta lobes in (`Plastic` is `D`; a path leaving it by its delta lobe records `S` there);
+    /// `RoughPlastic` is its coating's class, as `Phong` is `G` (a diffuse base under a glossy
+    /// coating scatters glossily as a whole):
     /// `Diffuse` and microfacet surfaces at least as rough as [`DIFFUSE_ALPHA`] are `D`, `Mirror`, `Conductor`, `ThinDielectric` and smooth `Dielectric` are `S`, smoother
     /// microfacet surfaces and `Phong` are `G`. A Phong sample still reports
     /// [`LobeClass::Diffuse`] in [`BsdfSample::lobe`] when its diffuse lobe was chosen.
@@ -340,6 +349,13 @@ impl Bsdf {
             | Bsdf::Dielectric { .. } => LobeClass::Specular,
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
                 if alpha.min_element() >= DIFFUSE_ALPHA {
+                    LobeClass::Diffuse
+                } else {
+                    LobeClass::Glossy
+                }
+            }
+            Bsdf::RoughPlastic(p) => {
+                if p.coating.alpha >= DIFFUSE_ALPHA {
                     LobeClass::Diffuse
                 } else {
                     LobeClass::Glossy
@@ -421,6 +437,30 @@ mod tests {
                     exponent: 10.0,
                 },
                 LobeClass::Glossy,
+                false,
+            ),
+            (
+                Bsdf::RoughPlastic(RoughPlastic::new(
+                    Rgb::splat(0.5),
+                    Rgb::WHITE,
+                    Distribution::Ggx,
+                    0.2,
+                    1.5,
+                    false,
+                )),
+                LobeClass::Glossy,
+                false,
+            ),
+            (
+                Bsdf::RoughPlastic(RoughPlastic::new(
+                    Rgb::splat(0.5),
+                    Rgb::WHITE,
+                    Distribution::Beckmann,
+                    0.5,
+                    1.5,
+                    false,
+                )),
+                LobeClass::Diffuse,
                 false,
             ),
         ];

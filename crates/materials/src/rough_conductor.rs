@@ -31,6 +31,27 @@ fn flip_z(w: Vec3) -> Vec3 {
     Vec3::new(w.x, w.y, -w.z)
 }
 
+/// `(wo, wi, h, wo·h)` moved to the upper hemisphere, or `None` when they are not a reflection
+/// pair. wo·h = wi·h = |wo + wi|/2 is computed from the length of the sum, so swapping wo and
+/// wi changes no bit of the result (reciprocity survives rounding at grazing angles).
+#[inline]
+pub(crate) fn upper_half_vector(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3, Vec3, f32)> {
+    if wo.z * wi.z <= 0.0 {
+        return None;
+    }
+    let (wo, wi) = if wo.z < 0.0 {
+        (flip_z(wo), flip_z(wi))
+    } else {
+        (wo, wi)
+    };
+    let sum = wo + wi;
+    let len = sum.length();
+    if len == 0.0 {
+        return None;
+    }
+    Some((wo, wi, sum / len, 0.5 * len))
+}
+
 impl RoughConductor {
     #[inline]
     pub(crate) fn new(distribution: Distribution, alpha: Vec2, eta: Rgb, k: Rgb) -> RoughConductor {
@@ -41,30 +62,9 @@ impl RoughConductor {
         }
     }
 
-    /// `(wo, wi, h, wo·h)` moved to the upper hemisphere, or `None` when they are not a reflection
-    /// pair. wo·h = wi·h = |wo + wi|/2 is computed from the length of the sum, so swapping wo and
-    /// wi changes no bit of the result (reciprocity survives rounding at grazing angles).
-    #[inline]
-    fn upper_half_vector(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3, Vec3, f32)> {
-        if wo.z * wi.z <= 0.0 {
-            return None;
-        }
-        let (wo, wi) = if wo.z < 0.0 {
-            (flip_z(wo), flip_z(wi))
-        } else {
-            (wo, wi)
-        };
-        let sum = wo + wi;
-        let len = sum.length();
-        if len == 0.0 {
-            return None;
-        }
-        Some((wo, wi, sum / len, 0.5 * len))
-    }
-
     #[inline]
     pub(crate) fn eval(&self, wo: Vec3, wi: Vec3) -> BsdfEval {
-        let Some((wo, wi, h, cos_h)) = Self::upper_half_vector(wo, wi) else {
+        let Some((wo, wi, h, cos_h)) = upper_half_vector(wo, wi) else {
             return BsdfEval::ZERO;
         };
         let d = self.ggx.d(h);
@@ -78,7 +78,7 @@ impl RoughConductor {
 
     #[inline]
     pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some((wo, _, h, cos_h)) = Self::upper_half_vector(wo, wi) else {
+        let Some((wo, _, h, cos_h)) = upper_half_vector(wo, wi) else {
             return 0.0;
         };
         self.ggx.reflection_pdf(wo, h, cos_h)

@@ -2,7 +2,7 @@
 //! directions to and from the shading frame and rejects bad configurations once, so no `Bsdf`
 //! variant repeats it.
 
-use crate::{Bsdf, BsdfEval, BsdfSample, Plastic, Texture, TextureSlots};
+use crate::{Bsdf, BsdfEval, BsdfSample, Plastic, RoughPlastic, Texture, TextureSlots};
 use lightlab_core::{Frame, TransportMode, Vec2, Vec3};
 
 /// A [`Bsdf`] placed at a surface point with shading frame `frame` (`frame.n` = shading normal ns)
@@ -73,7 +73,9 @@ impl Material {
             Bsdf::Diffuse { albedo: c } | Bsdf::Mirror { reflectance: c } => {
                 *c = reflectance.unwrap_or(*c);
             }
-            Bsdf::Phong { kd, ks, .. } | Bsdf::Plastic(Plastic { kd, ks, .. }) => {
+            Bsdf::Phong { kd, ks, .. }
+            | Bsdf::Plastic(Plastic { kd, ks, .. })
+            | Bsdf::RoughPlastic(RoughPlastic { kd, ks, .. }) => {
                 *kd = reflectance.unwrap_or(*kd);
                 *ks = specular.unwrap_or(*ks);
             }

@@ -9,7 +9,7 @@
 //! Two charts:
 //!
 //! - **Sphere** ([`Domain::Sphere`], 41 × 80 equal-area cells over all directions) for lobes wider
-//!   than a cell: Diffuse, Plastic (its base), Phong with exponents 1 and 20, GGX with α from 0.05 to 1 and anisotropic
+//!   than a cell: Diffuse, Plastic (its base), RoughPlastic, Phong with exponents 1 and 20, GGX with α from 0.05 to 1 and anisotropic
 //!   α = (0.1, 0.6), Beckmann with α = 0.3 and (0.1, 0.6). The horizon lies in the middle of a row, on an edge of the integration
 //!   sub-grid, so the jump from reflection to transmission is integrated exactly.
 //! - **Window** ([`DirectionWindow`] on [`Domain::Square`]) for near-specular lobes (GGX with
@@ -27,8 +27,8 @@
 //! near-specular transmission lobe: 45° is beyond the critical angle).
 //!
 //! False failures: every chi-square run uses the default α = sidak(0.01, 250) = 4.02 × 10⁻⁵.
-//! This file makes 153 runs (counted per test function below), so a correct implementation fails
-//! some run with probability 1 − (1 − α)¹⁵³ ≈ 0.613 % over the choice of seeds; the seeds are fixed,
+//! This file makes 181 runs (counted per test function below), so a correct implementation fails
+//! some run with probability 1 − (1 − α)¹⁸¹ ≈ 0.725 % over the choice of seeds; the seeds are fixed,
 //! so a passing suite keeps passing until the sampling code changes.
 
 use crate::common::*;
@@ -509,6 +509,34 @@ fn chi2_plastic() {
     for (k, bsdf) in plastics().into_iter().enumerate() {
         sphere_cases(&format!("plastic{k}"), bsdf, &wos, 5000 + 10 * k as u64);
     }
+}
+
+/// 28 runs: the four rough plastics on the sphere, normal, 45° and grazing incidence on both
+/// sides — except α = 0.05 at grazing incidence, whose coating lobe is narrower than a sphere cell
+/// there — and α = 0.05 on reflection windows around its lobe, all six incidences (the base inside
+/// the window is tested with it). The pdf sums both lobes with their selection probabilities, so
+/// the counts test the tabulated transmittance that sets them as well as each lobe's shape.
+#[test]
+fn chi2_rough_plastic() {
+    let plastics = rough_plastics();
+    let mut runs = 0;
+    for (k, &bsdf) in plastics.iter().enumerate() {
+        let wos = wos_both_sides();
+        let wos = if k == 0 { &wos[..4] } else { &wos[..] };
+        runs += sphere_cases(
+            &format!("rough_plastic{k}"),
+            bsdf,
+            wos,
+            5100 + 10 * k as u64,
+        );
+    }
+    for (k, wo) in wos_both_sides().into_iter().enumerate() {
+        let window = reflection_window(wo, Vec2::splat(0.05));
+        let name = format!("rough_plastic0_window_wo{k}");
+        chi2_window(&name, plastics[0], wo, &window, 5150 + k as u64);
+        runs += 1;
+    }
+    assert_eq!(runs, 28);
 }
 
 // ---- Phong --------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 //! Shared test fixtures: parameter sets for every variant, awkward directions, random helpers.
 
 use lightlab_core::{Rgb, TransportMode, Vec2, Vec3};
-use lightlab_materials::{Bsdf, Distribution, Plastic};
+use lightlab_materials::{Bsdf, Distribution, Plastic, RoughPlastic};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 
@@ -104,6 +104,29 @@ pub fn plastics() -> Vec<Bsdf> {
             })
         })
         .collect()
+}
+
+/// Rough plastic with the same base and coating factor: near-specular GGX (α = 0.05) and fully
+/// rough GGX (α = 1) on glass, GGX α = 0.3 on the inverted interface η = 1/1.5, Beckmann α = 0.3;
+/// linear and nonlinear.
+pub fn rough_plastics() -> Vec<Bsdf> {
+    [
+        (Distribution::Ggx, 0.05, 1.5, false),
+        (Distribution::Ggx, 0.3, 1.0 / 1.5, true),
+        (Distribution::Beckmann, 0.3, 1.5, true),
+        (Distribution::Ggx, 1.0, 1.5, false),
+    ]
+    .map(|(distribution, alpha, eta, nonlinear)| {
+        Bsdf::RoughPlastic(RoughPlastic::new(
+            Rgb::new(0.7, 0.4, 0.2),
+            Rgb::new(1.0, 0.8, 0.9),
+            distribution,
+            alpha,
+            eta,
+            nonlinear,
+        ))
+    })
+    .to_vec()
 }
 
 pub fn phongs() -> Vec<Bsdf> {

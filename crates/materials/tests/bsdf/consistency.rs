@@ -117,6 +117,14 @@ fn plastic_samples_agree_with_eval_and_pdf() {
 }
 
 #[test]
+fn rough_plastic_samples_agree_with_eval_and_pdf() {
+    for bsdf in rough_plastics() {
+        assert!(!bsdf.mixes_delta() && !bsdf.is_delta());
+        check_sample_consistency(bsdf, &wos_both_sides(), 8);
+    }
+}
+
+#[test]
 fn phong_reports_the_lobe_it_sampled() {
     let bsdf = phong(20.0);
     // p_diffuse = avg(kd) / (avg(kd) + avg(ks)) = (1/3) / (1/3 + 0.4) ≈ 0.4545.

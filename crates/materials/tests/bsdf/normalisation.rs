@@ -139,6 +139,7 @@ fn pdf_integrates_to_the_probability_that_sampling_succeeds() {
     bsdfs.extend(rough_dielectrics());
     bsdfs.extend(phongs());
     bsdfs.extend(plastics());
+    bsdfs.extend(rough_plastics());
     for bsdf in bsdfs {
         for wo in wos_both_sides() {
             let est = pdf_integral(bsdf, wo, 22);

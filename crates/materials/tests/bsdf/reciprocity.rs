@@ -84,6 +84,13 @@ fn plastic_is_reciprocal() {
 }
 
 #[test]
+fn rough_plastic_is_reciprocal() {
+    for bsdf in rough_plastics() {
+        check_reciprocity(bsdf, 37, false);
+    }
+}
+
+#[test]
 fn rough_dielectric_reflection_is_reciprocal() {
     for bsdf in rough_dielectrics() {
         check_reciprocity(bsdf, 34, false);
@@ -106,6 +113,7 @@ fn importance_mode_is_the_adjoint_of_radiance_mode() {
     bsdfs.extend(rough_dielectrics());
     bsdfs.extend(phongs());
     bsdfs.extend(plastics());
+    bsdfs.extend(rough_plastics());
     for bsdf in bsdfs {
         for (wo, wi) in pairs(bsdf, 36) {
             let adjoint = bsdf.eval(wo, wi, TransportMode::Importance).f;

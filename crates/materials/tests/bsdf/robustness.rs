@@ -4,7 +4,7 @@
 
 use crate::common::*;
 use lightlab_core::{Rgb, Vec2, Vec3};
-use lightlab_materials::{Bsdf, Plastic};
+use lightlab_materials::{Bsdf, Distribution, Plastic, RoughPlastic};
 
 fn extreme_bsdfs() -> Vec<Bsdf> {
     let alphas = [
@@ -63,6 +63,23 @@ fn extreme_bsdfs() -> Vec<Bsdf> {
             v.extend(
                 [false, true].map(|nonlinear| Bsdf::Plastic(Plastic::new(kd, ks, eta, nonlinear))),
             );
+            for (distribution, alpha) in [
+                (Distribution::Ggx, 0.0),
+                (Distribution::Ggx, 1e-4),
+                (Distribution::Beckmann, 1e-4),
+                (Distribution::Ggx, 10.0),
+            ] {
+                v.extend([false, true].map(|nonlinear| {
+                    Bsdf::RoughPlastic(RoughPlastic::new(
+                        kd,
+                        ks,
+                        distribution,
+                        alpha,
+                        eta,
+                        nonlinear,
+                    ))
+                }));
+            }
         }
     }
     v

@@ -34,6 +34,7 @@ fn test_bsdfs() -> Vec<Bsdf> {
         },
         phong(20.0),
         plastics()[0],
+        rough_plastics()[1],
     ]
 }
 
@@ -218,6 +219,7 @@ fn one_sided_surfaces_are_black_from_behind_and_unchanged_in_front() {
         rough_conductor(Vec2::splat(0.3)),
         phong(20.0),
         plastics()[0],
+        rough_plastics()[1],
     ] {
         let material = Material {
             one_sided: true,
