@@ -20,7 +20,7 @@ run() {
 }
 run "$shared/cbox.xml" --spp 256 --passes 32
 run "$shared/simple.xml" --spp 256 --passes 32
-run scenes/mitsuba/materials.xml --spp 512 --passes 32
+run scenes/mitsuba/materials.xml --spp 2048 --passes 64
 run benches/peers/envmap-spheres.xml --spp 512 --passes 32
 run scenes/mitsuba/textures.xml --spp 512 --passes 32
 exit $status

@@ -116,6 +116,28 @@ fn ior_not_positive() {
         3,
         &["Plastic ior", "> 0"],
     );
+    assert_error(
+        "materials: { \"p\": RoughPlastic(kd: (0.5, 0.5, 0.5), roughness: Isotropic(0.2), ior: 1) },",
+        3,
+        &["RoughPlastic ior", "≠ 1"],
+    );
+}
+
+#[test]
+fn rough_plastic_roughness_is_isotropic() {
+    assert_error(
+        "materials: { \"p\": RoughPlastic(kd: (0.5, 0.5, 0.5), roughness: Anisotropic(0.1, 0.3)) },",
+        3,
+        &[
+            "RoughPlastic roughness must be Isotropic",
+            "Anisotropic(0.1, 0.3)",
+        ],
+    );
+    assert_error(
+        "materials: { \"p\": RoughPlastic(kd: (0.5, 0.5, 0.5), roughness: Isotropic(-1)) },",
+        3,
+        &["roughness α must be ≥ 0"],
+    );
 }
 
 #[test]

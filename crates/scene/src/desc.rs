@@ -218,6 +218,23 @@ pub enum MaterialRaw {
         #[serde(default)]
         nonlinear: bool,
     },
+    /// Rough plastic (Mitsuba 3's `roughplastic`): `Plastic` with a rough coating, whose
+    /// microfacets have `roughness` `Isotropic(α)` (the coating's transmittance is tabulated over
+    /// the polar angle alone, so anisotropic roughness is refused) and `distribution` as for
+    /// `RoughConductor`. `ior` > 0 and ≠ 1, default 1.5; `kd`, `ks`, `nonlinear` as for `Plastic`.
+    /// Two-sided.
+    RoughPlastic {
+        kd: ColourDesc,
+        #[serde(default = "white")]
+        ks: ColourDesc,
+        roughness: Roughness,
+        #[serde(default = "glass_ior")]
+        ior: f32,
+        #[serde(default)]
+        distribution: Microfacets,
+        #[serde(default)]
+        nonlinear: bool,
+    },
 }
 
 /// A colour parameter: a constant `(r, g, b)`, or the name of a texture in the scene's `textures`
@@ -440,6 +457,31 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
                 unit_colour("Plastic kd", kd)?;
                 unit_colour("Plastic ks", ks)?;
                 positive("Plastic ior", *ior)?;
+            }
+            MaterialRaw::RoughPlastic {
+                kd,
+                ks,
+                roughness,
+                ior,
+                ..
+            } => {
+                unit_colour("RoughPlastic kd", kd)?;
+                unit_colour("RoughPlastic ks", ks)?;
+                check_roughness(*roughness)?;
+                if let Roughness::Anisotropic(ax, ay) = roughness {
+                    return Err(format!(
+                        "RoughPlastic roughness must be Isotropic(α): its coating's transmittance \
+                         depends on the polar angle alone; got Anisotropic({ax}, {ay})"
+                    ));
+                }
+                positive("RoughPlastic ior", *ior)?;
+                if *ior == 1.0 {
+                    return Err(
+                        "RoughPlastic ior must differ from 1: an index-matched rough \
+                                coating has no microfacet refraction; use ior > 0 and ≠ 1"
+                            .into(),
+                    );
+                }
             }
             MaterialRaw::Phong { kd, ks, exponent } => {
                 unit_colour("Phong kd", kd)?;

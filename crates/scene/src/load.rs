@@ -16,7 +16,7 @@ use crate::{Camera, EnvMap, Light, Scene, SceneError};
 use glam::{DMat3, DQuat, DVec3, Mat3, Vec2, Vec3};
 use lightlab_core::Rgb;
 use lightlab_geometry::{Accel, Geometry, NO_LIGHT, Shape, Sphere, TriangleMesh};
-use lightlab_materials::{Bsdf, Distribution, Material, Plastic};
+use lightlab_materials::{Bsdf, Distribution, Material, Plastic, RoughPlastic};
 use std::path::Path;
 
 /// Loads and builds the scene in `path`: RON, or a Mitsuba 3 XML file (`.xml`, imported with its
@@ -343,6 +343,21 @@ pub(crate) fn bsdf(m: &MaterialDesc) -> Bsdf {
             ior,
             nonlinear,
         } => Bsdf::Plastic(Plastic::new(c(kd), c(ks), ior, nonlinear)),
+        MaterialRaw::RoughPlastic {
+            ref kd,
+            ref ks,
+            roughness,
+            ior,
+            distribution,
+            nonlinear,
+        } => Bsdf::RoughPlastic(RoughPlastic::new(
+            c(kd),
+            c(ks),
+            microfacets(distribution),
+            alpha(roughness).x,
+            ior,
+            nonlinear,
+        )),
     }
 }
 

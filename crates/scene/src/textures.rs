@@ -112,6 +112,10 @@ pub(crate) fn material(
             reflectance: id(slot("Plastic kd", kd)?),
             specular: id(slot("Plastic ks", ks)?),
         },
+        MaterialRaw::RoughPlastic { kd, ks, .. } => TextureSlots {
+            reflectance: id(slot("RoughPlastic kd", kd)?),
+            specular: id(slot("RoughPlastic ks", ks)?),
+        },
         MaterialRaw::Phong { kd, ks, .. } => {
             let (d, s) = (slot("Phong kd", kd)?, slot("Phong ks", ks)?);
             let largest = |c: &ColourDesc, s: Option<(u32, f32)>| {

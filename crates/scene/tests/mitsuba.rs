@@ -140,9 +140,14 @@ fn malformed_xml_and_unknown_parameters_are_located() {
 fn unsupported_plugins_are_errors_naming_what_is_supported() {
     for (name, body, expect) in [
         (
-            "roughplastic",
-            "<bsdf type=\"roughplastic\"/>",
-            "BSDF type 'roughplastic'",
+            "blendbsdf",
+            "<bsdf type=\"blendbsdf\"/>",
+            "BSDF type 'blendbsdf'",
+        ),
+        (
+            "anisotropic-roughplastic",
+            "<bsdf type=\"roughplastic\"><float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha_v\" value=\"0.3\"/></bsdf>",
+            "RoughPlastic roughness must be Isotropic",
         ),
         (
             "shapegroup",
@@ -526,7 +531,11 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
             <bsdf type="twosided" id="red-plastic"><bsdf type="plastic">
                 <rgb name="diffuse_reflectance" value="0.8, 0.1, 0.1"/><rgb name="specular_reflectance" value="0.5"/>
                 <float name="int_ior" value="1.9"/><float name="ext_ior" value="1.0"/><boolean name="nonlinear" value="true"/>
-            </bsdf></bsdf>"#
+            </bsdf></bsdf>
+            <bsdf type="roughplastic" id="rough-plastic"/>
+            <bsdf type="roughplastic" id="ggx-plastic"><string name="distribution" value="ggx"/>
+                <float name="alpha" value="0.3"/><float name="int_ior" value="1.5"/><float name="ext_ior" value="1"/>
+                <boolean name="nonlinear" value="true"/></bsdf>"#
         ),
     );
     // Mitsuba's plastic defaults: diffuse 0.5, specular 1, polypropylene (1.49) in air, linear;
@@ -554,6 +563,37 @@ fn bsdfs_keep_mitsuba_defaults_and_sidedness() {
                 nonlinear: true
             },
             false
+        )
+    );
+    // Mitsuba's roughplastic defaults: plastic's, with Beckmann normals of α = 0.1.
+    let (rough, one_sided) = material(&i, "rough-plastic");
+    let MaterialRaw::RoughPlastic {
+        kd,
+        ks,
+        roughness,
+        ior,
+        distribution,
+        nonlinear,
+    } = rough
+    else {
+        panic!("{rough:?}")
+    };
+    assert!(one_sided && !nonlinear && distribution == Microfacets::Beckmann);
+    assert_eq!((kd, ks), (Rgb::splat(0.5).into(), Rgb::WHITE.into()));
+    assert_eq!(roughness, Roughness::Isotropic(0.1));
+    assert!((ior - 1.49 / 1.000277).abs() < 1e-5, "{ior}");
+    assert_eq!(
+        material(&i, "ggx-plastic"),
+        (
+            MaterialRaw::RoughPlastic {
+                kd: Rgb::splat(0.5).into(),
+                ks: Rgb::WHITE.into(),
+                roughness: Roughness::Isotropic(0.3),
+                ior: 1.5,
+                distribution: Microfacets::Ggx,
+                nonlinear: true
+            },
+            true
         )
     );
     assert_eq!(

@@ -109,10 +109,28 @@ pub(crate) fn material(
                 true,
             )
         }
+        "roughplastic" => {
+            let (roughness, distribution) = roughness(&o)?;
+            let ior = relative_ior(&o, "polypropylene")?;
+            (
+                MaterialRaw::RoughPlastic {
+                    kd: colour(&o, "diffuse_reflectance", refs, textures)?
+                        .unwrap_or(ColourDesc::Constant(Rgb::splat(0.5))),
+                    ks: colour(&o, "specular_reflectance", refs, textures)?
+                        .unwrap_or(ColourDesc::Constant(Rgb::WHITE)),
+                    roughness,
+                    ior,
+                    distribution,
+                    nonlinear: o.boolean("nonlinear", false)?,
+                },
+                true,
+            )
+        }
         other => {
             return Err(o.error(format!(
                 "BSDF type '{other}' is not imported (supported: diffuse, conductor, \
-                 roughconductor, dielectric, thindielectric, roughdielectric, plastic, twosided)"
+                 roughconductor, dielectric, thindielectric, roughdielectric, plastic, \
+                 roughplastic, twosided)"
             )));
         }
     };
