@@ -169,6 +169,20 @@ fn empty_scene() {
 }
 
 #[test]
+fn directional_light_needs_a_direction() {
+    assert_error(
+        &format!("{WHITE}\nlights: [ Directional(direction: (0, 0, 0), irradiance: (1, 1, 1)) ]"),
+        4,
+        &["Directional direction must be non-zero"],
+    );
+    assert_error(
+        &format!("{WHITE}\nlights: [ Directional(direction: (0, -1, 0), irradiance: (-1, 1, 1)) ]"),
+        4,
+        &["Directional irradiance"],
+    );
+}
+
+#[test]
 fn other_impossible_values() {
     assert_error(
         &format!(
@@ -271,7 +285,7 @@ fn settings_that_cannot_render_the_scene_are_refused() {
             .unwrap();
         let e = integrator.check_scene(&scene).unwrap_err();
         assert!(
-            e.contains(strategy) && e.contains("point and spot"),
+            e.contains(strategy) && e.contains("point, spot and directional"),
             "{strategy}: {e}"
         );
         let e = IntegratorConfig::from_ron(&format!("Path(strategy: {strategy}, shadows: false)"))

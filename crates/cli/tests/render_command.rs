@@ -220,7 +220,7 @@ fn time_budget_and_honest_error_bars() {
     let (ok, _, stderr) = render_with(&point, &["-i", "Path(strategy: BsdfOnly)"], &out);
     assert!(
         !ok && stderr.contains("point.ron")
-            && stderr.contains("point and spot")
+            && stderr.contains("point, spot and directional")
             && !stderr.contains("panicked"),
         "{stderr}"
     );

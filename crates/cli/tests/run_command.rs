@@ -99,6 +99,45 @@ fn run_shard_merge_and_plot() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// An experiment may list Mitsuba 3 XML scenes beside RON ones; two scenes of one stem are told
+/// apart by their file names.
+#[test]
+fn experiments_take_mitsuba_scenes() {
+    let dir = temp_dir("xml");
+    std::fs::write(
+        dir.join("s.xml"),
+        r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="60"/>
+        <film type="hdrfilm"><integer name="width" value="6"/><integer name="height" value="4"/>
+            <rfilter type="box"/></film>
+    </sensor>
+    <shape type="sphere"><float name="radius" value="5"/>
+        <bsdf type="twosided"><bsdf type="diffuse"/></bsdf>
+        <emitter type="area"><rgb name="radiance" value="1"/></emitter>
+    </shape>
+    <shape type="rectangle"><transform name="to_world"><translate z="-2"/></transform></shape>
+</scene>"#,
+    )
+    .unwrap();
+    std::fs::write(dir.join("s.ron"), SCENE).unwrap();
+    std::fs::write(
+        dir.join("e.ron"),
+        EXPERIMENT.replace(r#"scenes: ["s.ron"]"#, r#"scenes: ["s.xml", "s.ron"]"#),
+    )
+    .unwrap();
+    let out = lightlab(&["run", "e.ron", "--results", "res"], &dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(dir.join("res/cli/runs.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 8 * 10, "{csv}");
+    assert!(csv.contains(",s.xml,") && csv.contains(",s.ron,"), "{csv}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 #[test]
 fn bad_experiments_are_errors_not_panics() {
     let dir = temp_dir("bad");
@@ -118,10 +157,19 @@ fn bad_experiments_are_errors_not_panics() {
         EXPERIMENT.replace("s.ron", "missing.ron"),
     )
     .unwrap();
+    std::fs::write(
+        dir.join("twice.ron"),
+        EXPERIMENT.replace(r#"["s.ron"]"#, r#"["s.ron", "s.ron"]"#),
+    )
+    .unwrap();
     let cases = [
         (vec!["run", "typo.ron"], "typo.ron:7:"),
         (vec!["run", "field.ron"], "max_bounce"),
         (vec!["run", "noscene.ron"], "missing.ron"),
+        (
+            vec!["run", "twice.ron"],
+            "twice.ron:3:14: scene \"s.ron\" is listed twice",
+        ),
         (vec!["run", "absent.ron"], "cannot read"),
         (vec!["run", "typo.ron", "--shard", "3/2"], "not a shard"),
         (vec!["plot", "nowhere"], "runs.csv"),

@@ -236,6 +236,17 @@ impl ExperimentDesc {
         if self.scenes.is_empty() {
             return err("scenes", "scenes must list at least one scene file".into());
         }
+        for (i, s) in self.scenes.iter().enumerate() {
+            if self.scenes[..i].contains(s) {
+                return err(
+                    &format!("\"{}\"", s.display()),
+                    format!(
+                        "scene \"{}\" is listed twice: its runs would be the same runs",
+                        s.display()
+                    ),
+                );
+            }
+        }
         if let Some((w, h)) = self.resolution
             && (w == 0 || h == 0 || w > 16384 || h > 16384)
         {

@@ -86,6 +86,34 @@ fn sanitize(s: &str) -> String {
         .collect()
 }
 
+/// The name of each scene in tables, run ids and seeds: its file stem (`cornell-box`), or its
+/// file name where two listed scenes share a stem (`box.ron`, `box.xml`), or the path as listed
+/// where they share that too (the list has no repeats: `ExperimentDesc::check`).
+fn scene_names(desc: &ExperimentDesc) -> Vec<String> {
+    let name = |s: &Path, f: fn(&Path) -> Option<&std::ffi::OsStr>| {
+        f(s).map_or("scene".into(), |s| s.to_string_lossy().into_owned())
+    };
+    let unique = |s: &Path, f: fn(&Path) -> Option<&std::ffi::OsStr>| {
+        desc.scenes
+            .iter()
+            .filter(|o| name(o, f) == name(s, f))
+            .count()
+            == 1
+    };
+    desc.scenes
+        .iter()
+        .map(|s| {
+            if unique(s, Path::file_stem) {
+                name(s, Path::file_stem)
+            } else if unique(s, Path::file_name) {
+                name(s, Path::file_name)
+            } else {
+                s.display().to_string()
+            }
+        })
+        .collect()
+}
+
 /// All runs of `desc` (loaded from `path`) in a fixed order: scenes, then methods, then settings
 /// (the first axis varying slowest), then trials.
 pub fn expand(desc: &ExperimentDesc, path: &Path) -> Result<Vec<RunSpec>, ExperimentError> {
@@ -104,11 +132,8 @@ pub fn expand(desc: &ExperimentDesc, path: &Path) -> Result<Vec<RunSpec>, Experi
             .collect();
     }
     let mut runs = Vec::new();
-    for scene in &desc.scenes {
+    for (scene, scene_name) in desc.scenes.iter().zip(scene_names(desc)) {
         let scene_path = base.join(scene);
-        let scene_name = scene_path
-            .file_stem()
-            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
         for method in &desc.methods {
             for setting in &settings {
                 let mut fields = method.settings.clone();

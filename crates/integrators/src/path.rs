@@ -221,8 +221,8 @@ impl Integrator for PathTracer {
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {
         if !self.samples_lights() && scene.lights.iter().any(|l| l.is_delta()) {
             return Err(format!(
-                "strategy {:?} never samples lights, so it cannot see the scene's point and spot \
-                 lights (no ray hits them): use Mis or LightOnly, or remove those lights",
+                "strategy {:?} never samples lights, so it cannot see the scene's point, spot and \
+                 directional lights (no ray hits a delta light): use Mis or LightOnly, or remove those lights",
                 self.config.strategy
             ));
         }

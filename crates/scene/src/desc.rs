@@ -909,6 +909,10 @@ pub enum LightRaw {
         #[serde(default)]
         rotate: Vec<RotationDesc>,
     },
+    /// Parallel light from infinity travelling along `direction` (any non-zero length; the sun):
+    /// `irradiance` (W·m⁻², ≥ 0) on a surface facing it. A delta direction: only next-event
+    /// estimation and light paths reach it (path tracing with `strategy: BsdfOnly` cannot).
+    Directional { direction: DVec3, irradiance: Rgb },
 }
 
 fn unit_scale() -> f32 {
@@ -954,6 +958,16 @@ impl TryFrom<LightRaw> for LightDesc {
             }
             LightRaw::Environment { radiance } => {
                 non_negative_rgb("Environment radiance", radiance)?
+            }
+            LightRaw::Directional {
+                direction,
+                irradiance,
+            } => {
+                finite_dvec("Directional direction", direction)?;
+                if direction.length_squared() == 0.0 {
+                    return Err("Directional direction must be non-zero".into());
+                }
+                non_negative_rgb("Directional irradiance", irradiance)?;
             }
             LightRaw::EnvironmentMap {
                 ref file,

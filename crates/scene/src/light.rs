@@ -1,5 +1,6 @@
-//! Lights and their sampling. Area lights are shapes with emission; point, spot and environment lights
-//! are delta or infinite emitters. Light selection is proportional to emitted power (see `Scene`).
+//! Lights and their sampling. Area lights are shapes with emission; point and spot lights are delta
+//! positions, the environment is infinite, and a directional light is both: a delta direction at
+//! infinity. Light selection is proportional to emitted power (see `Scene`).
 
 use crate::EnvMap;
 use glam::{Vec2, Vec3};
@@ -41,6 +42,12 @@ pub enum Light {
     Environment {
         radiance: Rgb,
         map: Option<Arc<EnvMap>>,
+    },
+    /// Parallel light from infinity travelling along the unit `direction` (the sun, pbrt-v4's
+    /// `DistantLight`): `irradiance` E (W·m⁻²) on a surface facing it, E·|cos θ| on others.
+    Directional {
+        direction: Vec3,
+        irradiance: Rgb,
     },
 }
 
@@ -86,7 +93,8 @@ impl Light {
     /// A ray leaving the light: position ∝ area (uniform on the disk of radius `scene_radius`
     /// facing the direction for the environment), direction cosine-weighted on the emitting side(s)
     /// of area lights, uniform for point lights, uniform in the cone for spot lights and uniform on
-    /// the sphere for the environment. The throughput of the ray is
+    /// the sphere for the environment; the directional light's rays start on the same disk and all
+    /// travel along its direction (`pdf_dir` = 1, a discrete probability). The throughput of the ray is
     /// `le · |cos(n, dir)| / (pdf_pos · pdf_dir)` (cos = 1 for delta and infinite lights).
     pub fn sample_le(
         &self,
@@ -194,6 +202,25 @@ impl Light {
                     delta_pos: false,
                 })
             }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                let d = square_to_concentric_disk(u_pos) * scene_radius;
+                let frame = Frame::from_z(direction);
+                let p = scene_center + frame.to_world(Vec3::new(d.x, d.y, 0.0))
+                    - direction * scene_radius;
+                Some(LightEmission {
+                    p,
+                    p_error: Vec3::ZERO,
+                    n: direction,
+                    dir: direction,
+                    le: irradiance,
+                    pdf_pos: 1.0 / (PI * scene_radius * scene_radius),
+                    pdf_dir: 1.0,
+                    delta_pos: false,
+                })
+            }
         }
     }
 
@@ -224,11 +251,23 @@ impl Light {
                 1.0 / (PI * scene_radius * scene_radius),
                 map.as_ref().map_or(INV_4PI, |m| m.pdf(-w)),
             ),
+            Light::Directional { .. } => (1.0 / (PI * scene_radius * scene_radius), 1.0),
         }
     }
 
+    /// Whether the light is a Dirac delta in position (point, spot) or direction (directional),
+    /// so that no path can hit it: only a connection (next-event estimation) reaches it.
     pub fn is_delta(&self) -> bool {
-        matches!(self, Light::Point { .. } | Light::Spot { .. })
+        matches!(
+            self,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. }
+        )
+    }
+
+    /// Whether the light sits at infinity (environment, directional): its rays come from a disk
+    /// bounding the scene, and its origin is a direction.
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Environment { .. } | Light::Directional { .. })
     }
 
     /// Radiance leaving an area light's surface point with geometric normal `n` in direction `w`.
@@ -263,6 +302,10 @@ impl Light {
             Light::Environment { radiance, ref map } => {
                 let integral = map.as_ref().map_or(radiance * (4.0 * PI), |m| m.integral());
                 integral * (PI * scene_radius * scene_radius)
+            }
+            // pbrt-v4 §12.4: the irradiance over the disk the scene presents to the light.
+            Light::Directional { irradiance, .. } => {
+                irradiance * (PI * scene_radius * scene_radius)
             }
         }
     }
@@ -360,6 +403,19 @@ impl Light {
                     infinite: true,
                 })
             }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => Some(LightSample {
+                wi: -direction,
+                li: irradiance,
+                pdf_w: 1.0,
+                p: p - direction,
+                p_error: Vec3::ZERO,
+                n: direction,
+                delta: true,
+                infinite: true,
+            }),
         }
     }
 
@@ -368,7 +424,7 @@ impl Light {
     pub fn pdf_li(&self, shapes: &[Shape], p: Vec3, lp: Vec3, ln: Vec3) -> f32 {
         match *self {
             Light::Area { shape, .. } => shapes[shape as usize].pdf_solid_angle(p, lp, ln),
-            Light::Point { .. } | Light::Spot { .. } => 0.0,
+            Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. } => 0.0,
             Light::Environment { .. } => self.environment_pdf(-ln),
         }
     }

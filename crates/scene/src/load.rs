@@ -111,7 +111,9 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
             LightRaw::Point { position, .. } | LightRaw::Spot { position, .. } => {
                 bounds.add(position)
             }
-            LightRaw::Environment { .. } | LightRaw::EnvironmentMap { .. } => {}
+            LightRaw::Environment { .. }
+            | LightRaw::EnvironmentMap { .. }
+            | LightRaw::Directional { .. } => {}
         }
     }
     for (i, s) in desc.shapes.iter().enumerate() {
@@ -395,6 +397,13 @@ fn light(l: &LightDesc, origin: DVec3) -> Light {
         LightRaw::Environment { radiance } => Light::Environment {
             radiance,
             map: None,
+        },
+        LightRaw::Directional {
+            direction,
+            irradiance,
+        } => Light::Directional {
+            direction: direction.normalize().as_vec3(),
+            irradiance,
         },
         LightRaw::EnvironmentMap { .. } => unreachable!("environment maps are built by the loader"),
     }

@@ -155,10 +155,16 @@ fn unsupported_plugins_are_errors_naming_what_is_supported() {
             "shape type 'shapegroup'",
         ),
         (
-            "directional",
-            "<emitter type=\"directional\"/>",
-            "emitter type 'directional'",
+            "directional-both",
+            "<emitter type=\"directional\"><vector name=\"direction\" value=\"0, -1, 0\"/><transform name=\"to_world\"/></emitter>",
+            "direction or to_world, not both",
         ),
+        (
+            "directional-zero",
+            "<emitter type=\"directional\"><vector name=\"direction\" value=\"0, 0, 0\"/></emitter>",
+            "Directional direction must be non-zero",
+        ),
+        ("mask", "<bsdf type=\"mask\"/>", "BSDF type 'mask'"),
         (
             "texture",
             "<texture type=\"noise\" id=\"t\"/>",
@@ -735,7 +741,9 @@ fn emitters_become_lights() {
             <emitter type="spot"><rgb name="intensity" value="3"/><float name="cutoff_angle" value="40"/>
                 <transform name="to_world"><lookat origin="1, 2, 3" target="1, 0, 3" up="1, 0, 0"/></transform></emitter>
             <emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="2"/>
-                <transform name="to_world"><rotate y="1" angle="90"/></transform></emitter>"#
+                <transform name="to_world"><rotate y="1" angle="90"/></transform></emitter>
+            <emitter type="directional"><vector name="direction" value="0, -2, 0"/><rgb name="irradiance" value="4"/></emitter>
+            <emitter type="directional"><transform name="to_world"><lookat origin="0, 0, 0" target="1, 0, 0" up="0, 1, 0"/></transform></emitter>"#
         ),
     );
     let e = i.desc.shapes[0].emission.unwrap();
@@ -787,6 +795,15 @@ fn emitters_become_lights() {
     assert_eq!((file.as_str(), *scale), ("sky.exr", 2.0));
     assert!(rotate.len() == 1 && (rotate[0].axis - glam::Vec3::Y).length() < 1e-6);
     assert!((rotate[0].degrees - 90.0).abs() < 1e-4, "{rotate:?}");
+    // Mitsuba's directional light travels along `direction`, or to_world's +z; irradiance default 1.
+    assert!(
+        matches!(lights[5], LightRaw::Directional { direction, irradiance }
+        if close(direction, DVec3::new(0.0, -2.0, 0.0)) && irradiance == Rgb::splat(4.0))
+    );
+    assert!(
+        matches!(lights[6], LightRaw::Directional { direction, irradiance }
+        if close(direction, DVec3::X) && irradiance == Rgb::WHITE)
+    );
     let (_, _, m) = err(
         "envmap-scaled",
         &format!(

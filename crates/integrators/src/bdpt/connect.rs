@@ -184,7 +184,7 @@ pub(crate) fn connection(
         pt.beta * pt.le(scene, &camera[t - 2])
     } else if t == 1 {
         let qs = &light[s - 1];
-        if !qs.connectible(scene) || qs.infinite {
+        if !qs.connectible() || qs.infinite {
             return None;
         }
         // s = t = 1: the point on the light seen directly through the lens (light tracing's
@@ -204,7 +204,7 @@ pub(crate) fn connection(
         c.contribution
     } else if s == 1 {
         let pt = &camera[t - 1];
-        if !pt.connectible(scene) {
+        if !pt.connectible() {
             return None;
         }
         let (light_index, pmf) = scene.sample_light(u_light)?;
@@ -240,7 +240,7 @@ pub(crate) fn connection(
         l
     } else {
         let (qs, pt) = (&light[s - 1], &camera[t - 1]);
-        if !qs.connectible(scene) || !pt.connectible(scene) || qs.infinite {
+        if !qs.connectible() || !pt.connectible() || qs.infinite {
             return None;
         }
         // s ≥ 2: qs is a surface vertex.

@@ -5,7 +5,7 @@ use super::vertex::{Kind, PathVertex};
 use lightlab_core::{Ray, Rgb};
 use lightlab_geometry::spawn_ray;
 use lightlab_samplers::Sampler;
-use lightlab_scene::{Light, Scene};
+use lightlab_scene::Scene;
 
 /// An emitted light path's origin and first ray.
 #[derive(Clone, Copy, Debug)]
@@ -28,7 +28,7 @@ pub(crate) fn emit<S: Sampler>(scene: &Scene, sampler: &mut S) -> Option<Emitted
     let (light, pmf) = scene.sample_light(u_light)?;
     let l = &scene.lights[light as usize];
     let em = l.sample_le(scene.shapes(), scene.center, scene.radius, u_pos, u_dir)?;
-    let infinite = matches!(l, Light::Environment { .. });
+    let infinite = l.is_infinite();
     let mut origin = PathVertex::new(Kind::Light { light }, em.p, em.le / (pmf * em.pdf_pos));
     origin.p_error = em.p_error;
     if infinite {

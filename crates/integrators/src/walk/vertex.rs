@@ -99,13 +99,12 @@ impl PathVertex {
     }
 
     /// Whether a deterministic connection to this vertex can carry light (not through a delta
-    /// BSDF, not to an environment's origin).
-    pub fn connectible(&self, scene: &Scene) -> bool {
+    /// BSDF, not to the origin of a light at infinity: an environment's or a directional light's
+    /// direction is reached only by sampling it).
+    pub fn connectible(&self) -> bool {
         match self.kind {
             Kind::Camera => true,
-            Kind::Light { light } => {
-                !self.infinite || !matches!(scene.lights[light as usize], Light::Environment { .. })
-            }
+            Kind::Light { .. } => !self.infinite,
             Kind::Surface => self.sb.is_some_and(|sb| !sb.bsdf.is_delta()),
         }
     }

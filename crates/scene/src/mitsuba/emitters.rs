@@ -1,4 +1,4 @@
-//! Mitsuba emitters: `area` (on a shape), `point`, `constant` and `envmap`.
+//! Mitsuba emitters: `area` (on a shape), `point`, `spot`, `directional`, `constant` and `envmap`.
 
 use super::object::Object;
 use super::xml::Element;
@@ -71,6 +71,24 @@ pub(crate) fn light(el: &Element) -> Result<LightDesc, SceneError> {
                 profile: crate::SpotProfile::Angular,
             }
         }
+        "directional" => {
+            // Mitsuba's directional light travels along `direction`, or along to_world's +z.
+            let direction = match (o.point("direction")?, o.transform("to_world")?) {
+                (Some(_), Some(_)) => {
+                    return Err(
+                        o.error("a directional light takes direction or to_world, not both")
+                    );
+                }
+                (Some(d), None) => d,
+                (None, m) => m.unwrap_or(DMat4::IDENTITY).transform_vector3(DVec3::Z),
+            };
+            let irradiance = o.color("irradiance")?.unwrap_or(Rgb::WHITE);
+            non_negative(&o, "irradiance", irradiance)?;
+            LightRaw::Directional {
+                direction,
+                irradiance,
+            }
+        }
         "envmap" => {
             let file = o
                 .string("filename")?
@@ -111,8 +129,8 @@ pub(crate) fn light(el: &Element) -> Result<LightDesc, SceneError> {
         }
         other => {
             return Err(o.error(format!(
-                "emitter type '{other}' is not imported (supported: area, point, spot, constant, \
-                 envmap)"
+                "emitter type '{other}' is not imported (supported: area, point, spot, directional, \
+                 constant, envmap)"
             )));
         }
     };
