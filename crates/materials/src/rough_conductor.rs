@@ -1,6 +1,6 @@
 //! Rough metal: the Torrance–Sparrow microfacet BRDF with GGX or Beckmann normals, height-correlated
-//! Smith masking-shadowing and the conductor Fresnel term, sampled by visible normals for GGX
-//! (pbrt-v4 §9.6.5) and by D(m) cos θm for Beckmann.
+//! Smith masking-shadowing and the conductor Fresnel term, sampled by visible normals (pbrt-v4
+//! §9.6.5; Heitz 2018 for GGX, Heitz & d'Eon 2014 for Beckmann).
 //!
 //!   f(wo, wi) = D(h) G2(wo, wi) F(wo·h) / (4 |cos θo| |cos θi|),  h = normalize(wo + wi)
 //!
@@ -10,8 +10,8 @@
 //!   p(wi) = D_wo(m) / (4 |wo·m|) = G1(wo) D(m) / (4 |cos θo|)
 //!
 //! (Walter et al. 2007, eq. 14 for the reflection Jacobian; Heitz 2018, eq. 17), so the sample
-//! weight is F·G2/G1(wo) ≤ 1. For Beckmann, m ~ D(m) cos θm gives p(wi) = D(m) cos θm / (4 |wo·m|)
-//! (Walter et al. 2007, eqs. 14 and 24). Symmetric in wo and wi, hence the same in both transport modes.
+//! weight is F·G2/G1(wo) ≤ 1, for both distributions. Symmetric in wo and wi, hence the same in
+//! both transport modes.
 //! Two-sided: a `wo` below the surface is handled by mirroring both directions through the
 //! tangent plane, which leaves D, Λ and the anisotropy axes unchanged.
 

@@ -16,8 +16,8 @@
 //! (wo, wi) and (wi, wo): absolute indices in m and S, and F from a cosine both orders share (see
 //! `Configuration::fresnel`).
 //!
-//! Sampling: a normal m — visible from wo, D_wo (Heitz 2018), for GGX; from D(m) cos θm for Beckmann
-//! (Walter eq. 24) — then reflection with probability F and
+//! Sampling: a normal m visible from wo, D_wo (Heitz 2018; Heitz & d'Eon 2014 for Beckmann), then
+//! reflection with probability F and
 //! refraction with probability 1 − F. The density is that of m times the Jacobian of the map m → wi,
 //! 1/(4|wo·m|) for reflection (Walter eq. 14) and η_i²|wi·m| / (η_i wi·m + η_o wo·m)² for refraction
 //! (Walter eq. 17), times the Fresnel selection probability. Microfacets that face away from either
@@ -167,8 +167,8 @@ impl RoughDielectric {
         mode: TransportMode,
     ) -> Option<BsdfSample> {
         let m = self.ggx.sample_normal(wo, u);
-        // A normal facing away from wo (possible for Beckmann's D cos θ sampling, which ignores wo)
-        // is discarded, as `configuration` does: lost mass, so the density stays exact.
+        // A normal facing away from wo (only by rounding at grazing angles: sampled normals are
+        // visible) is discarded, as `configuration` does: lost mass, so the density stays exact.
         if wo.dot(m) * wo.z <= 0.0 {
             return None;
         }

@@ -317,7 +317,7 @@ fn chi2_rough_conductor_rough_and_anisotropic() {
 
 // ---- Beckmann ------------------------------------------------------------------------------
 
-/// 30 runs: Beckmann normals (sampled by D(m) cos θm) on gold at α = 0.05 (reflection window),
+/// 30 runs: Beckmann normals (visible normals, Heitz & d'Eon 2014) on gold at α = 0.05 (reflection window),
 /// 0.3 and (0.1, 0.6), and on glass at 0.3 and (0.1, 0.6), both sides.
 #[test]
 fn chi2_beckmann() {

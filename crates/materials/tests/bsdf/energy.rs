@@ -365,3 +365,25 @@ fn rough_plastic_albedo_is_the_layered_model_of_its_interface() {
         }
     }
 }
+
+/// Sampling visible normals bounds a rough conductor's sample weight, F·G2/G1(wo) ≤ F ≤ 1, for
+/// both distributions and at grazing incidence (Heitz 2018 §1; Heitz & d'Eon 2014 §5) — sampling
+/// D(m) cos θm instead gives weights up to |wo·m| / (cos θo cos θm), unbounded as θo → 90°.
+#[test]
+fn rough_conductor_sample_weights_are_at_most_one() {
+    let mut rng = rng(20);
+    for bsdf in rough_conductors() {
+        for wo in wos_both_sides() {
+            for _ in 0..20_000 {
+                let u = uniform2(&mut rng);
+                if let Some(s) = bsdf.sample(wo, 0.5, u, TransportMode::Radiance) {
+                    assert!(
+                        s.weight.max_component() <= 1.0 + 1e-4,
+                        "{bsdf:?}, wo {wo}, u {u}: weight {:?}",
+                        s.weight
+                    );
+                }
+            }
+        }
+    }
+}
