@@ -132,7 +132,9 @@ pub fn write_source(path: &Path, out_dir: &Path) -> Result<(), String> {
 }
 
 /// Loads a scene with the experiment's resolution override; returns it with its text (for a
-/// Mitsuba file, the imported description, which includes its meshes and included files).
+/// Mitsuba file, the imported description, which includes its meshes and included files), to
+/// which the name and a hash of the contents of every file it reads are appended (meshes, texture
+/// images, the environment map): the reference cache's key must change when any of them does.
 pub fn load_scene(path: &Path, resolution: Option<(u32, u32)>) -> Result<(Scene, String), String> {
     let (mut scene, text) = if lightlab_scene::mitsuba::is_mitsuba(path) {
         let imported = lightlab_scene::mitsuba::import(path, &[]).map_err(|e| e.to_string())?;
@@ -149,6 +151,13 @@ pub fn load_scene(path: &Path, resolution: Option<(u32, u32)>) -> Result<(Scene,
     };
     if let Some((w, h)) = resolution {
         scene.camera = scene.camera.with_resolution(w, h);
+    }
+    let mut text = text;
+    for input in &scene.inputs {
+        let bytes = std::fs::read(input)
+            .map_err(|e| format!("{}: cannot read scene input: {e}", input.display()))?;
+        let name = input.file_name().unwrap_or_default().to_string_lossy();
+        text += &format!("\ninput:{name}:{:016x}", crate::plan::fnv1a(&bytes));
     }
     Ok((scene, text))
 }

@@ -173,6 +173,37 @@ fn reference_cache_key_changes_with_exactly_what_produced_it() {
     }
 }
 
+/// The scene text the reference cache hashes includes the contents of the files the scene reads:
+/// editing a mesh file changes it, rewriting the same bytes does not.
+#[test]
+fn scene_text_changes_with_the_files_the_scene_reads() {
+    let dir = std::env::temp_dir().join(format!("lightlab-inputs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("mesh.ron");
+    std::fs::write(
+        &scene,
+        r#"Scene(camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (4, 4)),
+               materials: { "m": Diffuse(albedo: (0.5, 0.5, 0.5)) },
+               shapes: [ Shape(geometry: Obj(file: "tri.obj"), material: "m",
+                               emission: (radiance: (1, 1, 1), two_sided: true)) ])"#,
+    )
+    .unwrap();
+    let obj = |z: f32| format!("v 0 0 {z}\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let text = || {
+        lightlab_experiments::runner::load_scene(&scene, None)
+            .unwrap()
+            .1
+    };
+    std::fs::write(dir.join("tri.obj"), obj(0.0)).unwrap();
+    let first = text();
+    assert!(first.contains("input:tri.obj:"), "{first}");
+    std::fs::write(dir.join("tri.obj"), obj(0.0)).unwrap();
+    assert_eq!(text(), first);
+    std::fs::write(dir.join("tri.obj"), obj(0.1)).unwrap();
+    assert_ne!(text(), first);
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 /// An equal-time budget runs a progressive integrator as one render, pass after pass, until the
 /// time is up (merging independent one-pass renders would never shrink SPPM's radius), ending
 /// within half a pass of the budget.

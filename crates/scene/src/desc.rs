@@ -35,6 +35,26 @@ pub struct SceneDesc {
     pub lights: Vec<LightDesc>,
 }
 
+impl SceneDesc {
+    /// The files the scene reads besides itself, as written (relative to the scene file): meshes,
+    /// texture images and the environment map — what a cache of its renders must hash too.
+    pub fn input_files(&self) -> Vec<&str> {
+        let meshes = self.shapes.iter().filter_map(|s| match &s.geometry.0 {
+            GeometryRaw::Obj { file, .. } => Some(file.as_str()),
+            _ => None,
+        });
+        let textures = self.textures.iter().filter_map(|(_, t)| match t {
+            TextureDesc::Bitmap { file, .. } => Some(file.as_str()),
+            _ => None,
+        });
+        let maps = self.lights.iter().filter_map(|l| match &l.0 {
+            LightRaw::EnvironmentMap { file, .. } => Some(file.as_str()),
+            _ => None,
+        });
+        meshes.chain(textures).chain(maps).collect()
+    }
+}
+
 /// `Camera(eye: (0, 0, 3.9), target: (0, 0, 0), fov: 39.3, resolution: (256, 256))`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, rename = "Camera", try_from = "CameraRaw")]

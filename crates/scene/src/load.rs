@@ -81,6 +81,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         ));
     }
     let base = path.parent().unwrap_or(Path::new("."));
+    let inputs: Vec<std::path::PathBuf> = desc.input_files().iter().map(|f| base.join(f)).collect();
     let texture_names: Vec<&str> = desc.textures.iter().map(|(n, _)| n.as_str()).collect();
     let textures = desc
         .textures
@@ -213,6 +214,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         lights,
     );
     scene.origin = origin;
+    scene.inputs = inputs;
     scene.warnings.extend(features.warning(path));
     Ok(scene)
 }

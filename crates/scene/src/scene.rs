@@ -30,6 +30,9 @@ pub struct Scene {
     /// What loading noticed and the user should know (e.g. features too small for f32 to
     /// resolve); printed by the command line.
     pub warnings: Vec<String>,
+    /// The files the scene was built from besides its own (meshes, texture images, environment
+    /// map), for caches keyed by what produced a render.
+    pub inputs: Vec<std::path::PathBuf>,
 }
 
 impl Scene {
@@ -73,6 +76,7 @@ impl Scene {
             radius,
             origin: glam::DVec3::ZERO,
             warnings: Vec::new(),
+            inputs: Vec::new(),
         }
     }
 
