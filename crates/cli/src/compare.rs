@@ -115,7 +115,10 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
         let f = |v: [f64; 3]| format!("({:.6}, {:.6}, {:.6})", v[0], v[1], v[2]);
         println!("{} pixels compared", c.pixels);
         println!("mean A = {}, mean B = {}", f(c.mean_a), f(c.mean_b));
-        println!("ratio A/B = {}", f(c.ratio));
+        let r = c
+            .ratio
+            .map(|r| r.map_or("— (B is 0)".to_string(), |r| format!("{r:.6}")));
+        println!("ratio A/B = ({}, {}, {})", r[0], r[1], r[2]);
         println!("MSE = {:.4e}, relMSE = {:.4e}", c.mse, c.rel_mse);
         match &c.z {
             Some(z) => println!(

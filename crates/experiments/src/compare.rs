@@ -72,8 +72,9 @@ pub struct Comparison {
     pub pixels: usize,
     pub mean_a: [f64; 3],
     pub mean_b: [f64; 3],
-    /// mean a / mean b per channel.
-    pub ratio: [f64; 3],
+    /// mean a / mean b per channel; `None` (JSON `null`) where mean b is 0, so the ratio is
+    /// undefined (a black channel).
+    pub ratio: [Option<f64>; 3],
     /// Mean over pixels and channels of (a − b)², and of (a − b)² / (b² + ε).
     pub mse: f64,
     pub rel_mse: f64,
@@ -142,7 +143,7 @@ pub fn compare(a: &Image, b: &Image, region: &Region, alpha: f64) -> Option<Comp
         pixels: inside.len(),
         mean_a,
         mean_b,
-        ratio: [0, 1, 2].map(|c| mean_a[c] / mean_b[c]),
+        ratio: [0, 1, 2].map(|c| (mean_b[c] != 0.0).then(|| mean_a[c] / mean_b[c])),
         mse,
         rel_mse: rel,
         z,
@@ -213,7 +214,17 @@ mod tests {
         let c = compare(&a, &b, &Region::All, 1e-3).unwrap();
         assert_eq!(c.pixels, 8);
         assert!((c.mse - 0.25).abs() < 1e-12 && c.z.is_none());
-        assert!((c.ratio[0] - 4.5 / 5.0).abs() < 1e-12, "{:?}", c.ratio);
+        assert!(
+            (c.ratio[0].unwrap() - 4.5 / 5.0).abs() < 1e-12,
+            "{:?}",
+            c.ratio
+        );
+        // A black reference channel has no ratio.
+        let black = image(4, 2, |_| 0.0, None);
+        assert_eq!(
+            compare(&a, &black, &Region::All, 1e-3).unwrap().ratio,
+            [None; 3]
+        );
         let r = Region::Rect {
             x0: 1,
             y0: 0,
