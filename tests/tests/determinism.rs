@@ -50,3 +50,38 @@ fn same_seed_same_bits_on_one_and_two_threads() {
     let other = render_on(2, 6);
     assert_ne!(one, other, "a different seed must change the image");
 }
+
+/// The directional light and the plastics (a mixed delta lobe, a tabulated coating) under every
+/// kind of integrator: the same bits on one and two threads.
+#[test]
+fn directional_light_and_plastics_same_bits_on_one_and_two_threads() {
+    let sc = scene(
+        "Scene(camera: Camera(eye: (0, 2, 3), target: (0, 0, 0), fov: 40, resolution: (19, 13)),
+               materials: { \"floor\": RoughPlastic(kd: (0.6, 0.5, 0.4), roughness: Isotropic(0.2)),
+                            \"ball\": Plastic(kd: (0.2, 0.3, 0.7), nonlinear: true) },
+               shapes: [
+                   Shape(geometry: Quad(corner: (-3, 0, -3), edge1: (0, 0, 6), edge2: (6, 0, 0)), material: \"floor\"),
+                   Shape(geometry: Sphere(center: (0, 0.5, 0), radius: 0.5), material: \"ball\"),
+               ],
+               lights: [ Directional(direction: (-0.3, -1, 0.2), irradiance: (2, 2, 2)),
+                         Point(position: (1, 2, 1), intensity: (1, 1, 1)) ])",
+    );
+    for config in [
+        "Path()",
+        "Light()",
+        "Bdpt()",
+        "Sppm(photons_per_pass: 5000)",
+        "Vcm(radius: Relative(0.05))",
+    ] {
+        let on = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| render(&sc, config, 4, 9)).film
+        };
+        let one = on(1);
+        assert!(one.average()[0] > 0.0, "{config}: the image is black");
+        assert_eq!(one, on(2), "{config}");
+    }
+}
