@@ -26,6 +26,8 @@ fn photon_mapping_same_bits_on_one_and_two_threads() {
         "Ppm(photons_per_pass: 10000, update: Global)",
         "Vcm(radius: Relative(0.05), light_paths: 2, outliers: Some(5))",
         "Vcm(variant: Bpm, radius: Relative(0.05), layers: Bounces, max_bounces: 4)",
+        "Radiosity(patches: 300, rays: 64, layers: Bounces, max_bounces: 3)",
+        "Radiosity(patches: 300, rays: 64, solver: Shooting, ambient: true, iterations: 1)",
     ] {
         let one = render_with(1, 4, config, 3);
         let two = render_with(2, 4, config, 3);

@@ -24,3 +24,4 @@ pub use offset::{offset_ray_origin, spawn_ray, spawn_ray_to, spawn_ray_to_point}
 pub use sampling::SurfaceSample;
 pub use shape::{Geometry, NO_LIGHT, Shape};
 pub use sphere::Sphere;
+pub use triangle::{geometric_normal, point_with_error};

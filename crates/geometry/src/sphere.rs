@@ -45,7 +45,7 @@ impl Sphere {
     /// the bound pbrt-v4 gives for applying the object-to-world translation to an inexact point
     /// (§6.8.5, "Effect of transformations"): (1 + γ₃)·err + γ₃·(|p_obj| + |center|). The |center| term keeps spheres far from
     /// the origin safe.
-    fn world_point(&self, p_obj: Vec3) -> (Vec3, Vec3) {
+    pub fn world_point(&self, p_obj: Vec3) -> (Vec3, Vec3) {
         let obj_error = gamma(5) * p_obj.abs();
         let p_error = (1.0 + gamma(3)) * obj_error + gamma(3) * (p_obj.abs() + self.center.abs());
         (self.center + p_obj, p_error)

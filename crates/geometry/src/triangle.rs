@@ -121,14 +121,14 @@ pub(crate) fn intersect(ray: &WatertightRay, v: &[Vec3; 3], t_max: f32) -> Optio
 
 /// Geometric normal `normalize(cross(p1 − p0, p2 − p0))`; `None` for a degenerate triangle.
 #[inline]
-pub(crate) fn geometric_normal(v: &[Vec3; 3]) -> Option<Vec3> {
+pub fn geometric_normal(v: &[Vec3; 3]) -> Option<Vec3> {
     (v[1] - v[0]).cross(v[2] - v[0]).try_normalize()
 }
 
 /// Point at barycentrics `b` with its error bound γₙ·Σ|bᵢ pᵢ| (pbrt-v4 §6.8.5: n = 7 for hit points,
 /// n = 6 for sampled points).
 #[inline]
-pub(crate) fn point_with_error(v: &[Vec3; 3], b: [f32; 3], n: i32) -> (Vec3, Vec3) {
+pub fn point_with_error(v: &[Vec3; 3], b: [f32; 3], n: i32) -> (Vec3, Vec3) {
     let (q0, q1, q2) = (b[0] * v[0], b[1] * v[1], b[2] * v[2]);
     let p = q0 + q1 + q2;
     let err = gamma(n) * (q0.abs() + q1.abs() + q2.abs());

@@ -13,6 +13,7 @@ use crate::paths::{Layers, Router};
 use crate::photon::config::{PhotonMapConfig, ProgressiveConfig};
 use crate::photon::pm::PhotonMapper;
 use crate::photon::progressive::{Progressive, Variant};
+use crate::radiosity::{Radiosity, RadiosityConfig};
 use crate::vcm::{Vcm, VcmConfig};
 use serde::{Deserialize, Serialize};
 
@@ -76,6 +77,9 @@ integrators! {
     /// Vertex connection and merging (Georgiev et al. 2012): BDPT's connections and photon
     /// mapping's merges under one MIS, a shrinking merge radius; samples per pixel count passes.
     Vcm(VcmConfig) => Vcm::new,
+    /// Radiosity (Goral et al. 1984): Lambertian patches, ray-cast form factors, a Jacobi,
+    /// Gauss–Seidel or progressive-shooting solve, shown through the camera.
+    Radiosity(RadiosityConfig) => Radiosity::new,
 }
 
 /// What every settings struct offers the variant-independent code ([`settings!`] implements it).
@@ -318,6 +322,7 @@ mod tests {
             "PhotonMap(photons: 1000, gather: Radius(Absolute(0.1)), indirect: Direct)",
             "Sppm(alpha: 0.5, update: Global, kernel: Cone)",
             "Ppm(radius: Absolute(0.01))",
+            "Radiosity(patches: 64, solver: Shooting, ambient: true, iterations: 3)",
         ] {
             let c = IntegratorConfig::from_ron(text).unwrap();
             assert_eq!(
@@ -391,6 +396,21 @@ mod tests {
             ("Vcm(strategy_layers: true)", "needs max_bounces"),
             ("Vcm(mis: Uniform)", "Power"),
             ("Vcm(variant: Pm)", "Bpm"),
+            ("Radiosity(patches: 0)", "patches must lie in 1"),
+            ("Radiosity(rays: 0)", "rays must lie in 1"),
+            ("Radiosity(tolerance: 0)", "tolerance must lie in (0, 1)"),
+            ("Radiosity(tolerance: 1)", "tolerance"),
+            ("Radiosity(max_bounces: 1, min_bounces: 2)", "min_bounces"),
+            (
+                "Radiosity(solver: GaussSeidel, max_bounces: 3)",
+                "only the Jacobi solver",
+            ),
+            (
+                "Radiosity(solver: Shooting, layers: Bounces)",
+                "only the Jacobi solver",
+            ),
+            ("Radiosity(ambient: true)", "solver: Shooting"),
+            ("Radiosity(paths: \"LD(\")", "paths"),
         ] {
             let e = IntegratorConfig::from_ron(bad).unwrap_err().to_string();
             assert!(e.contains(words), "{bad}: {e}");

@@ -48,6 +48,7 @@ mod path;
 pub mod paths;
 pub mod photon;
 mod provenance;
+pub mod radiosity;
 mod render;
 mod sink;
 pub mod vcm;
@@ -64,6 +65,7 @@ pub use photon::config::{
 };
 pub use photon::map::Kernel;
 pub use provenance::Outlier;
+pub use radiosity::{RadiosityConfig, RadiosityStats, Solver};
 pub use render::{Counters, PixelLimit, PixelVariance, RenderOutput, RenderStats, Technique};
 pub use sink::Sink;
 pub use vcm::{Heuristic, Variant as VcmVariant, Vcm, VcmConfig};

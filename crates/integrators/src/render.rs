@@ -42,6 +42,11 @@ pub enum PixelLimit {
     /// A photon-map estimate blurred over a radius that never shrinks (`PhotonMap`): more camera
     /// samples converge to that blurred value, not to the pixel integral.
     FixedRadiusBlur,
+    /// The pixel integral of a piecewise-constant radiosity solution (`Radiosity`): radiance
+    /// constant over each patch and form factors estimated once, so against a reference of the
+    /// true radiance the difference stays as discretisation error (and the form factors' noise),
+    /// however many camera samples.
+    PatchRadiosity,
 }
 
 /// Counters gathered while rendering.
@@ -89,6 +94,9 @@ pub struct RenderStats {
     pub image_mean: [f64; 3],
     /// Its standard error; `None` where the sample passes are not independent.
     pub image_mean_se: Option<[f64; 3]>,
+    /// The patches, form factors and solver iterations of a `Radiosity` render.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radiosity: Option<crate::radiosity::RadiosityStats>,
 }
 
 impl RenderStats {
@@ -131,6 +139,7 @@ impl RenderStats {
             pixel_limit: PixelLimit::PixelIntegral,
             image_mean: film.average(),
             image_mean_se: film.image_se,
+            radiosity: None,
         }
     }
 
