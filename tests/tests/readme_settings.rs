@@ -48,7 +48,16 @@ fn struct_fields(name: &str) -> BTreeSet<String> {
 fn readme_integrator_tables_list_exactly_the_settings_fields() {
     let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md"))
         .expect("README.md");
-    for name in ["Path", "Light", "Bdpt", "PhotonMap", "Ppm", "Sppm", "Vcm"] {
+    for name in [
+        "Path",
+        "Light",
+        "Bdpt",
+        "PhotonMap",
+        "Ppm",
+        "Sppm",
+        "Vcm",
+        "Radiosity",
+    ] {
         let documented = readme_fields(&readme, name);
         let fields = struct_fields(name);
         let missing: Vec<_> = fields.difference(&documented).collect();

@@ -67,6 +67,16 @@ fn csv_rows(records: &[RunRecord]) -> Vec<CsvRow> {
             ("mae", r.errors.mae),
             ("reference_variance", r.errors.reference_variance),
         ];
+        let radiosity = r.radiosity.iter().flat_map(|s| {
+            [
+                ("patches".to_string(), s.patches as f64),
+                ("form_factor_rays".to_string(), s.form_factor_rays as f64),
+                ("iterations".to_string(), s.iterations as f64),
+                ("residual".to_string(), s.residual),
+                ("form_factor_seconds".to_string(), s.form_factor_seconds),
+                ("solve_seconds".to_string(), s.solve_seconds),
+            ]
+        });
         let per_class = r.class_errors.iter().flat_map(|(class, e)| {
             [
                 (format!("mse[{class}]"), e.mse),
@@ -77,6 +87,7 @@ fn csv_rows(records: &[RunRecord]) -> Vec<CsvRow> {
         for (metric, value) in metrics
             .into_iter()
             .map(|(m, v)| (m.to_string(), v))
+            .chain(radiosity)
             .chain(per_class)
         {
             rows.push(CsvRow {
@@ -483,6 +494,110 @@ struct Plots {
     files: Vec<String>,
 }
 
+/// A setting's `key=value` pairs, in order.
+fn setting_pairs(setting: &str) -> impl Iterator<Item = (&str, &str)> {
+    setting.split(", ").filter_map(|kv| kv.split_once('='))
+}
+
+/// For every setting besides the budget that takes two or more numeric values among one scene's
+/// `points`, the MSE (and each class's) against it, one series per method and remaining settings:
+/// `(file stem, plot)`. The x axis is logarithmic when every value is positive and they span a
+/// factor of 8 or more.
+fn field_plots(scene: &str, points: &[&RunPoint]) -> Vec<(String, LinePlot)> {
+    let mut fields: Vec<&str> = Vec::new();
+    for p in points {
+        for (k, _) in setting_pairs(&p.setting) {
+            if k != "spp" && k != "seconds" && !fields.contains(&k) {
+                fields.push(k);
+            }
+        }
+    }
+    let mut classes: Vec<&String> = points.iter().flat_map(|p| p.class_mse.keys()).collect();
+    classes.sort();
+    classes.dedup();
+    let mut plots = Vec::new();
+    for field in fields {
+        // (series label, x, the run) for every run that sets the field to a number.
+        let mut keyed = Vec::new();
+        for p in points {
+            let Some((_, v)) = setting_pairs(&p.setting).find(|(k, _)| *k == field) else {
+                continue;
+            };
+            let Ok(x) = v.parse::<f64>() else {
+                keyed.clear();
+                break;
+            };
+            let rest: Vec<String> = setting_pairs(&p.setting)
+                .filter(|(k, _)| *k != field)
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect();
+            keyed.push((series_label(&p.method, &rest.join(", ")), x, *p));
+        }
+        let mut xs: Vec<f64> = keyed.iter().map(|k| k.1).collect();
+        xs.sort_by(f64::total_cmp);
+        xs.dedup();
+        if xs.len() < 2 {
+            continue;
+        }
+        let log_x = xs[0] > 0.0 && xs[xs.len() - 1] >= 8.0 * xs[0];
+        let metrics = std::iter::once(None).chain(classes.iter().map(|c| Some(*c)));
+        for class in metrics {
+            let mut order: Vec<&str> = Vec::new();
+            let mut by_series: BTreeMap<&str, Vec<(f64, Vec<f64>)>> = BTreeMap::new();
+            for (label, x, p) in &keyed {
+                let mse = match class {
+                    None => p.mse,
+                    Some(c) => match p.class_mse.get(c) {
+                        Some(&m) => m,
+                        None => continue,
+                    },
+                };
+                if !order.contains(&label.as_str()) {
+                    order.push(label);
+                }
+                let series = by_series.entry(label).or_default();
+                match series.iter_mut().find(|(sx, _)| sx == x) {
+                    Some((_, trials)) => trials.push(mse),
+                    None => series.push((*x, vec![mse])),
+                }
+            }
+            let series = order
+                .iter()
+                .map(|label| {
+                    let mut points: Vec<(f64, f64, f64)> = by_series[label]
+                        .iter()
+                        .map(|(x, trials)| {
+                            let (m, se) = mean_se(trials);
+                            (*x, m, se)
+                        })
+                        .collect();
+                    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    Series {
+                        label: label.to_string(),
+                        points,
+                    }
+                })
+                .collect();
+            let (what, suffix) = match class {
+                None => ("MSE".to_string(), String::new()),
+                Some(c) => (format!("MSE of {c}"), format!("-{}", sanitize(c))),
+            };
+            plots.push((
+                format!("mse-vs-{}{suffix}", sanitize(field)),
+                LinePlot {
+                    title: format!("{scene}: {what} against {field}"),
+                    x_label: field.to_string(),
+                    y_label: format!("{what} (mean over trials ± 1 s.e.)"),
+                    log_x,
+                    log_y: true,
+                    series,
+                },
+            ));
+        }
+    }
+    plots
+}
+
 /// `lightlab plot`: redraws the plots of `out_dir` from its `runs.csv` alone.
 pub fn plot_from_csv(out_dir: &Path) -> io::Result<Vec<String>> {
     let path = out_dir.join("runs.csv");
@@ -597,6 +712,15 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                 log_y: true,
                 series,
             };
+            let svg = render_svg(&plot).map_err(io::Error::other)?;
+            let file = format!("{scene}-{name}.svg");
+            write_atomic(&out_dir.join(&file), svg.as_bytes())?;
+            files.push(file);
+        }
+
+        // The error against every other numeric setting an axis sweeps (max_bounces, patches, …).
+        let scene_points: Vec<&RunPoint> = pts.iter().filter(|p| p.scene == scene).collect();
+        for (name, plot) in field_plots(scene, &scene_points) {
             let svg = render_svg(&plot).map_err(io::Error::other)?;
             let file = format!("{scene}-{name}.svg");
             write_atomic(&out_dir.join(&file), svg.as_bytes())?;

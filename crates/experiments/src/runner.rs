@@ -113,6 +113,25 @@ pub struct RunRecord {
     /// The machine it ran on (CPU model, logical cores, operating system).
     #[serde(default)]
     pub machine: String,
+    /// A radiosity run's discretisation and solve.
+    #[serde(default)]
+    pub radiosity: Option<RadiosityRecord>,
+}
+
+/// What a radiosity run did besides rendering (from its `RadiosityStats`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct RadiosityRecord {
+    /// Patches made.
+    pub patches: usize,
+    /// Form-factor rays cast.
+    pub form_factor_rays: u64,
+    /// Solver iterations done.
+    pub iterations: u32,
+    /// Relative residual ‖E + ρF̂B − B‖ / ‖E‖ of the solution.
+    pub residual: f64,
+    /// Seconds estimating the form factors and solving (both within `wall_seconds`).
+    pub form_factor_seconds: f64,
+    pub solve_seconds: f64,
 }
 
 /// Summary of one `lightlab run`.
@@ -344,6 +363,14 @@ pub fn run_experiment(
             pixel_limit: out.stats.pixel_limit,
             lightlab_version: env!("CARGO_PKG_VERSION").into(),
             machine: crate::html::machine(),
+            radiosity: out.stats.radiosity.as_ref().map(|r| RadiosityRecord {
+                patches: r.patches,
+                form_factor_rays: r.form_factor_rays,
+                iterations: r.iterations,
+                residual: r.residuals.last().copied().unwrap_or(0.0),
+                form_factor_seconds: r.form_factor_seconds,
+                solve_seconds: r.solve_seconds,
+            }),
         };
         let dir = run_dir(&out_dir, run);
         write_exr(

@@ -405,3 +405,69 @@ fn foreign_exr_references_load() {
     assert!(e.contains("\"radiance\"") && e.contains("beauty"), "{e}");
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+/// A radiosity sweep records each run's patches, iterations and residual in runs.csv, and every
+/// numeric setting an axis sweeps (here `max_bounces` and `patches`) gets an MSE plot against it.
+#[test]
+fn radiosity_runs_record_their_solve_and_plot_error_against_each_swept_setting() {
+    let (_, dir) = setup("radiosity");
+    let exp = dir.join("radiosity.ron");
+    std::fs::write(
+        &exp,
+        r#"Experiment(
+            name: "rad",
+            scenes: ["furnace.ron"],
+            reference: Render(integrator: "Path(max_bounces: 3)", spp: 64),
+            methods: [(label: "jacobi", integrator: "Radiosity", settings: {"rays": 16})],
+            sweep: [
+                Values(field: "max_bounces", values: [0, 1, 2, 3]),
+                Values(field: "patches", values: [20, 80]),
+                Values(field: "sampler", values: ["Sobol"]),
+            ],
+            budget: Samples(2),
+            trials: 2,
+            seed: 3,
+        )"#,
+    )
+    .unwrap();
+    let results = dir.join("results");
+    let (ran, _, _) = run(&exp, &results, None);
+    assert_eq!(ran, 16);
+    let out = results.join("rad");
+    let csv = std::fs::read_to_string(out.join("runs.csv")).unwrap();
+    for metric in [
+        ",patches,",
+        ",iterations,",
+        ",residual,",
+        ",form_factor_rays,",
+    ] {
+        assert!(csv.contains(metric), "runs.csv lacks {metric}");
+    }
+    // Jacobi's iterations are the bounces asked for.
+    let mut reader = csv::Reader::from_reader(csv.as_bytes());
+    let mut checked = 0;
+    for row in reader.records() {
+        let row = row.unwrap();
+        if &row[6] == "iterations" {
+            let bounces = row[3]
+                .split(", ")
+                .next()
+                .unwrap()
+                .strip_prefix("max_bounces=");
+            assert_eq!(bounces, Some(row[7].trim_end_matches(".0")), "{row:?}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 16);
+    for plot in [
+        "furnace-mse-vs-max_bounces.svg",
+        "furnace-mse-vs-patches.svg",
+    ] {
+        let svg = std::fs::read_to_string(out.join(plot)).unwrap_or_else(|_| panic!("{plot}"));
+        assert!(svg.contains("jacobi"), "{plot} has no series");
+    }
+    assert!(
+        !out.join("furnace-mse-vs-sampler.svg").exists(),
+        "non-numeric axis plotted"
+    );
+}

@@ -29,7 +29,7 @@ mod tests;
 pub use solve::Solver;
 
 use crate::config::{ConfigError, Settings, Validate, invalid};
-use crate::passes::{PassSpec, Schedule, run_passes};
+use crate::passes::{PassSpec, RenderArgs, SampledRender, Schedule, render_sampled, run_passes};
 use crate::paths::{Layers, PathClass, Router};
 use crate::render::{PixelLimit, PixelVariance, named};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
@@ -37,7 +37,7 @@ use form_factors::FormFactors;
 use glam::Vec2;
 use lightlab_core::{PI, Progress, Rgb};
 use lightlab_materials::{Bsdf, LobeClass};
-use lightlab_samplers::{Independent, Sampler};
+use lightlab_samplers::{Sampler, SamplerConfig};
 use lightlab_scene::{Light, Scene};
 use patches::Patches;
 use serde::{Deserialize, Serialize};
@@ -73,6 +73,10 @@ pub struct RadiosityConfig {
     pub tolerance: f64,
     /// Shooting only: show the unshot radiosity as Cohen et al.'s ambient term. Default false.
     pub ambient: bool,
+    /// The camera samples' sampler: `Independent`, `Stratified`, `LatinHypercube`, `Halton` or
+    /// `Sobol` (see `lightlab_samplers::SamplerConfig`); a stratified one resolves edges (the
+    /// lights' above all) with far fewer samples. Default `Independent`.
+    pub sampler: SamplerConfig,
     /// Jacobi only: render only the terms whose paths `L Dᵏ E` this expression matches; `None`
     /// renders every term. Default `None`.
     pub paths: Option<String>,
@@ -92,6 +96,7 @@ impl Default for RadiosityConfig {
             iterations: None,
             tolerance: 1e-6,
             ambient: false,
+            sampler: SamplerConfig::Independent,
             paths: None,
             layers: Layers::Off,
         }
@@ -374,6 +379,31 @@ impl Integrator for Radiosity {
         progress: &dyn Progress,
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
     ) -> RenderOutput {
+        render_sampled(self, scene, budget, seed, progress, on_pass)
+    }
+
+    fn sampler(&self) -> Option<&SamplerConfig> {
+        Some(&self.config.sampler)
+    }
+}
+
+impl SampledRender for Radiosity {
+    fn sampler_config(&self) -> SamplerConfig {
+        self.config.sampler
+    }
+
+    fn render_with<S: Sampler + Clone + Send + Sync + 'static>(
+        &self,
+        prototype: S,
+        args: RenderArgs,
+    ) -> RenderOutput {
+        let RenderArgs {
+            scene,
+            budget,
+            seed,
+            progress,
+            on_pass,
+        } = args;
         let (width, height) = (scene.camera.width, scene.camera.height);
         let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
         let (patches, radiance, radiosity, form_factor_rays) = self.solve(scene, seed);
@@ -391,7 +421,7 @@ impl Integrator for Radiosity {
             &mut schedule,
             on_pass,
             |x, y, index, sink, counters, _: &mut ()| {
-                let mut sampler = Independent::new();
+                let mut sampler = prototype.clone();
                 sampler.start_pixel_sample(seed, y as u64 * width as u64 + x as u64, index);
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 let ray = scene.camera.generate_ray(film, sampler.next_2d());
