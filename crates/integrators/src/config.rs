@@ -7,6 +7,7 @@
 
 use crate::Integrator;
 use crate::bdpt::{Bdpt, BdptConfig};
+use crate::cone::{Cone, ConeConfig};
 use crate::light::{LightConfig, LightTracer};
 use crate::path::{PathConfig, PathTracer};
 use crate::paths::{Layers, Router};
@@ -80,6 +81,9 @@ integrators! {
     /// Radiosity (Goral et al. 1984): Lambertian patches, ray-cast form factors, a Jacobi,
     /// Gauss–Seidel or progressive-shooting solve, shown through the camera.
     Radiosity(RadiosityConfig) => Radiosity::new,
+    /// Cone tracing (Amanatides 1984): one cone per pixel, analytic coverage of spheres and
+    /// polygons composited front to back, direct light with shadow cones.
+    Cone(ConeConfig) => Cone::new,
 }
 
 /// What every settings struct offers the variant-independent code ([`settings!`] implements it).

@@ -39,6 +39,7 @@
 #![warn(missing_docs)]
 
 pub mod bdpt;
+pub mod cone;
 mod config;
 mod film;
 mod light;
@@ -55,6 +56,7 @@ pub mod vcm;
 mod walk;
 
 pub use bdpt::{BdptConfig, Mis};
+pub use cone::ConeConfig;
 pub use config::{ConfigError, IntegratorConfig, Validate};
 pub use film::{Film, PixelSums};
 pub use light::LightConfig;

@@ -47,6 +47,10 @@ pub enum PixelLimit {
     /// true radiance the difference stays as discretisation error (and the form factors' noise),
     /// however many camera samples.
     PatchRadiosity,
+    /// Cone tracing's composite of analytic coverages over a disk-shaped pixel footprint
+    /// (`Cone`): a different filter and approximations (see `cone`), not the box-filtered pixel
+    /// integral; deterministic, so no samples change it.
+    ConeFootprint,
 }
 
 /// Counters gathered while rendering.
