@@ -28,6 +28,7 @@ fn photon_mapping_same_bits_on_one_and_two_threads() {
         "Vcm(variant: Bpm, radius: Relative(0.05), layers: Bounces, max_bounces: 4)",
         "Radiosity(patches: 300, rays: 64, layers: Bounces, max_bounces: 3)",
         "Radiosity(patches: 300, rays: 64, solver: Shooting, ambient: true, iterations: 1)",
+        "Cone()",
     ] {
         let one = render_with(1, 4, config, 3);
         let two = render_with(2, 4, config, 3);
