@@ -16,12 +16,14 @@ use std::path::PathBuf;
 pub struct RenderArgs {
     /// Scene file: RON, or a Mitsuba 3 XML file (`.xml`; see scenes/README.md, "Mitsuba scenes").
     scene: PathBuf,
-    /// Integrator and its settings as RON, e.g. 'Path(max_bounces: 8, strategy: Mis)'. Default:
+    /// Integrator and its settings as RON, e.g. 'Path(max_bounces: 8, strategy: Mis)': Path,
+    /// Light, Bdpt, PhotonMap, Ppm, Sppm, Vcm, Radiosity or Cone (README, "Integrators"). Default:
     /// a Mitsuba file's own integrator (its max_depth mapped to max_bounces), else 'Path()'.
     #[arg(long, short)]
     integrator: Option<String>,
     /// Samples per pixel (≥ 1): camera paths per pixel, light paths per pixel for light tracing,
-    /// passes for progressive photon mapping. Default: a Mitsuba file's sample_count, else 16.
+    /// passes for progressive photon mapping, camera samples of the solution for radiosity
+    /// (ignored by cone tracing: one cone per pixel). Default: a Mitsuba file's sample_count, else 16.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..), conflicts_with = "seconds")]
     spp: Option<u32>,
     /// A parameter of a Mitsuba scene, NAME=VALUE (repeatable), overriding its <default> like
