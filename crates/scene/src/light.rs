@@ -90,6 +90,17 @@ pub struct LightSample {
 }
 
 impl Light {
+    /// What kind of light this is, for messages ("an area light", "a point light", …).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Light::Area { .. } => "an area light",
+            Light::Point { .. } => "a point light",
+            Light::Spot { .. } => "a spot light",
+            Light::Environment { .. } => "an environment light",
+            Light::Directional { .. } => "a directional light",
+        }
+    }
+
     /// A ray leaving the light: position ∝ area (uniform on the disk of radius `scene_radius`
     /// facing the direction for the environment), direction cosine-weighted on the emitting side(s)
     /// of area lights, uniform for point lights, uniform in the cone for spot lights and uniform on

@@ -321,14 +321,12 @@ fn check(scene: &Scene) -> Result<(), String> {
             "cone tracing starts its cones at a pinhole: the scene's camera has a thin lens".into(),
         );
     }
-    for light in &scene.lights {
-        let kind = match light {
-            Light::Area { .. } => continue,
-            Light::Point { .. } => "a point light",
-            Light::Spot { .. } => "a spot light",
-            Light::Environment { .. } => "an environment light",
-            Light::Directional { .. } => "a directional light",
-        };
+    if let Some(light) = scene
+        .lights
+        .iter()
+        .find(|l| !matches!(l, Light::Area { .. }))
+    {
+        let kind = light.kind();
         return Err(format!(
             "cone tracing casts shadow cones toward lights with area (spheres and polygons); the \
              scene has {kind}"

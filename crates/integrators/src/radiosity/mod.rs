@@ -327,14 +327,12 @@ impl Radiosity {
 /// Why `scene` cannot be solved by radiosity, if it cannot: every surface Lambertian with a
 /// constant albedo, every light an area light.
 fn check(scene: &Scene) -> Result<(), String> {
-    for light in &scene.lights {
-        let kind = match light {
-            Light::Area { .. } => continue,
-            Light::Point { .. } => "a point light",
-            Light::Spot { .. } => "a spot light",
-            Light::Environment { .. } => "an environment light",
-            Light::Directional { .. } => "a directional light",
-        };
+    if let Some(light) = scene
+        .lights
+        .iter()
+        .find(|l| !matches!(l, Light::Area { .. }))
+    {
+        let kind = light.kind();
         return Err(format!(
             "Radiosity exchanges light between patches with area, so it models area lights \
              (emissive shapes) only; the scene has {kind}"
