@@ -380,3 +380,55 @@ fn mesh_file_errors_name_the_problem() {
     }
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn impossible_motion() {
+    let shape = |motion: &str| {
+        format!(
+            "{WHITE}\n{LIGHT}\nshapes: [ Shape(geometry: Sphere(center: (0, 0, 0), radius: 1), material: \"white\",\n motion: {motion}) ]"
+        )
+    };
+    assert_error(
+        &shape("Motion(keys: [Key(time: 0)])"),
+        6,
+        &["at least two keys", "got 1"],
+    );
+    assert_error(
+        &shape("Motion(keys: [Key(time: 1), Key(time: 0.5, translate: (1, 0, 0))])"),
+        6,
+        &["increase strictly", "1 then 0.5"],
+    );
+    assert_error(
+        &shape(
+            "Motion(keys: [Key(time: 0), Key(time: 1, rotate: [(axis: (0, 0, 0), degrees: 5)])])",
+        ),
+        6,
+        &["non-zero axis"],
+    );
+    assert_error(
+        &shape("Motion(keys: [Key(time: 0), Key(time: 1, translat: (1, 0, 0))])"),
+        6,
+        &["translat", "translate"],
+    );
+    // Emitters stay at rest: light sampling and emission use them there.
+    assert_error(
+        &format!(
+            "{WHITE}\nshapes: [ Shape(geometry: Sphere(center: (0, 0, 0), radius: 1), material: \"white\",\n emission: (radiance: (1, 1, 1)), motion: Motion(keys: [Key(time: 0), Key(time: 1)])) ]"
+        ),
+        5,
+        &["emissive shape cannot move"],
+    );
+}
+
+#[test]
+fn impossible_shutter() {
+    let text = "Scene(camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (8, 8),\n shutter: (1, 0)))";
+    let e = parse_scene(text, Path::new("scenes/bad.ron"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.starts_with("scenes/bad.ron:") && e.contains("open ≤ close"),
+        "{e}"
+    );
+}

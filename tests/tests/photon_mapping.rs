@@ -80,7 +80,7 @@ fn photon_fluxes_sum_to_the_emitted_power() {
     let sc = point_over_plane();
     let n = 10_000;
     let total: f64 = (0..n)
-        .map(|j| emit(&sc, &mut photon_sampler(3, j)).unwrap().1.r as f64)
+        .map(|j| emit(&sc, &mut photon_sampler(3, j), 0.0).unwrap().1.r as f64)
         .sum::<f64>()
         / n as f64;
     let want = 4.0 * std::f64::consts::PI * INTENSITY as f64;
@@ -100,7 +100,7 @@ fn photon_fluxes_sum_to_the_emitted_power() {
         .collect();
     let mut sums = [0.0f64; 3];
     for j in 0..n {
-        let p = emit(&sc, &mut photon_sampler(3, j)).unwrap().1;
+        let p = emit(&sc, &mut photon_sampler(3, j), 0.0).unwrap().1;
         for (s, v) in sums.iter_mut().zip([p.r, p.g, p.b]) {
             *s += v as f64 / n as f64;
         }
@@ -133,8 +133,8 @@ fn point_light_irradiance_estimate_converges_with_kernel_bias() {
         let map = PhotonMap::new(trace_photons(
             &sc,
             9,
-            0,
-            photons,
+            (0, photons),
+            0.0,
             how,
             &mut Counters::default(),
         ));

@@ -17,6 +17,7 @@
 //! triangle ids live in a separate, colder array that is read only for the final hit.
 
 use crate::hit::Hit;
+use crate::motion::Motion;
 use crate::shape::{Geometry, Shape};
 use crate::sphere::Sphere;
 use crate::triangle::{self, WatertightRay};
@@ -128,6 +129,18 @@ pub struct Accel {
     canonical: Canonical,
     bounds: (Vec3, Vec3),
     triangle_count: usize,
+    /// Shapes that move over the shutter, outside the BVH (a two-level structure with a flat top
+    /// level: a static scene pays nothing for them).
+    moving: Vec<Moving>,
+}
+
+/// A moving shape: its own BVH over its rest geometry, queried with rays moved into the rest
+/// frame at their time, behind a box that bounds it over all times.
+struct Moving {
+    shape: u32,
+    motion: Motion,
+    accel: Accel,
+    swept: (Vec3, Vec3),
 }
 
 impl Accel {
@@ -135,10 +148,29 @@ impl Accel {
     /// conversion, `medium_build`), in parallel on the current rayon pool. Degenerate triangles
     /// and spheres of non-positive radius are left out: they can never be hit.
     pub fn new(shapes: Vec<Shape>) -> Accel {
+        Accel::with_motion(shapes, Vec::new())
+    }
+
+    /// As [`Accel::new`], with `motion[i]` (where given and `Some`) moving shape `i` rigidly over
+    /// time: shape `i` is then its rest geometry, [`Ray::time`] says where it is.
+    pub fn with_motion(shapes: Vec<Shape>, motion: Vec<Option<Motion>>) -> Accel {
         let mut refs = Vec::new();
         let mut boxes: Vec<(Vec3, Vec3)> = Vec::new();
+        let mut moving = Vec::new();
         for (s, shape) in shapes.iter().enumerate() {
             let shape_id = s as u32;
+            if let Some(Some(m)) = motion.get(s) {
+                let accel = Accel::new(vec![shape.clone()]);
+                let (lo, hi) = accel.bounds();
+                let swept = m.swept_bounds((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+                moving.push(Moving {
+                    shape: shape_id,
+                    motion: m.clone(),
+                    accel,
+                    swept,
+                });
+                continue;
+            }
             match &shape.geometry {
                 Geometry::Mesh(mesh) => {
                     let tris: Vec<(PrimRef, (Vec3, Vec3))> = (0..mesh.len())
@@ -175,16 +207,20 @@ impl Accel {
             }
         }
 
-        let (lo, hi) = boxes.iter().fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), b| (lo.min(b.0), hi.max(b.1)),
-        );
-        let bounds = if boxes.is_empty() {
+        let union = |boxes: &mut dyn Iterator<Item = (Vec3, Vec3)>| {
+            boxes.fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), b| (lo.min(b.0), hi.max(b.1)),
+            )
+        };
+        let (lo, hi) = union(&mut boxes.iter().copied());
+        let canonical = Canonical::new(lo.into(), hi.into());
+        let (lo, hi) = union(&mut boxes.iter().copied().chain(moving.iter().map(|m| m.swept)));
+        let bounds = if boxes.is_empty() && moving.is_empty() {
             (Vec3::ZERO, Vec3::ZERO)
         } else {
             (lo, hi)
         };
-        let canonical = Canonical::new(bounds.0.into(), bounds.1.into());
 
         let (bvh, prims, refs) = if refs.is_empty() {
             (CwBvh::default(), Vec::new(), Vec::new())
@@ -223,7 +259,8 @@ impl Accel {
         let triangle_count = prims
             .iter()
             .filter(|p| matches!(p, Prim::Triangle(_)))
-            .count();
+            .count()
+            + moving.iter().map(|m| m.accel.triangle_count).sum::<usize>();
         Accel {
             shapes,
             bvh,
@@ -232,7 +269,18 @@ impl Accel {
             canonical,
             bounds,
             triangle_count,
+            moving,
         }
+    }
+
+    /// Whether any shape moves.
+    pub fn has_motion(&self) -> bool {
+        !self.moving.is_empty()
+    }
+
+    /// The motion of shape `i`, if it moves.
+    pub fn motion(&self, i: u32) -> Option<&Motion> {
+        self.moving.iter().find(|m| m.shape == i).map(|m| &m.motion)
     }
 
     pub fn shapes(&self) -> &[Shape] {
@@ -240,7 +288,7 @@ impl Accel {
     }
 
     /// World-space bounding box (min, max) of everything in the BVH (spheres' boxes widened by
-    /// their rounding error); (0, 0) when empty.
+    /// their rounding error) and of moving shapes over all times; (0, 0) when empty.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         self.bounds
     }
@@ -259,8 +307,41 @@ impl Accel {
         }
     }
 
-    /// Closest hit with t in (0, ray.t_max).
+    /// Closest hit with t in (0, ray.t_max), moving shapes where they are at `ray.time`.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut closest = self.intersect_static(ray);
+        for m in &self.moving {
+            let t_max = closest.map_or(ray.t_max, |h| h.t);
+            if !slab(m.swept, ray, t_max) {
+                continue;
+            }
+            let tr = m.motion.at(ray.time);
+            let rest = Ray {
+                t_max,
+                ..tr.ray_to_rest(ray)
+            };
+            if let Some(h) = m.accel.intersect(&rest)
+                && h.t < t_max
+            {
+                closest = Some(Hit {
+                    shape: m.shape,
+                    ..tr.hit_to_world(h)
+                });
+            }
+        }
+        closest
+    }
+
+    /// Whether anything is hit with t in (0, ray.t_max), moving shapes at `ray.time`.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_static(ray)
+            || self.moving.iter().any(|m| {
+                slab(m.swept, ray, ray.t_max)
+                    && m.accel.occluded(&m.motion.at(ray.time).ray_to_rest(ray))
+            })
+    }
+
+    fn intersect_static(&self, ray: &Ray) -> Option<Hit> {
         if self.prims.is_empty() || ray.t_max.is_nan() || ray.t_max <= 0.0 {
             return None;
         }
@@ -299,8 +380,7 @@ impl Accel {
         self.hit(ray, id, t_max, b)
     }
 
-    /// Whether anything is hit with t in (0, ray.t_max).
-    pub fn occluded(&self, ray: &Ray) -> bool {
+    fn occluded_static(&self, ray: &Ray) -> bool {
         if self.prims.is_empty() || ray.t_max.is_nan() || ray.t_max <= 0.0 {
             return false;
         }
@@ -370,6 +450,20 @@ impl Accel {
             light: shape.light,
         })
     }
+}
+
+/// Whether `ray` may meet the box `b` with t in [0, t_max] (slab test, exit distances widened by
+/// the test's rounding; a NaN from a zero direction component on a slab's plane keeps the box).
+#[inline]
+fn slab(b: (Vec3, Vec3), ray: &Ray, t_max: f32) -> bool {
+    let inv = ray.d.recip();
+    let (t0, t1) = ((b.0 - ray.o) * inv, (b.1 - ray.o) * inv);
+    if t0.is_nan() || t1.is_nan() {
+        return true;
+    }
+    let near = t0.min(t1).max_element().max(0.0);
+    let far = t0.max(t1).min_element().min(t_max) * FAR_SCALE;
+    near <= far
 }
 
 /// Quantised slab test of the 8 children of `node` (Ylitie et al. 2017, §3.1: the ray is moved into
@@ -730,5 +824,162 @@ mod tests {
         assert!((h.uv - Vec2::new(0.5, 2.0)).length() < 1e-6);
         assert!((h.dpdu - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6);
         assert!(h.p_error.max_element() > 0.0 && h.p_error.max_element() < 1e-6);
+    }
+
+    /// Every fourth shape of [`scene`] moves: a translation of the scene's size and a turn of up
+    /// to 120° about a pivot inside the scene, over t in [0, 1].
+    fn motions(shapes: &[Shape], seed: u64, scale: f32, offset: Vec3) -> Vec<Option<Motion>> {
+        use crate::MotionKey;
+        use glam::Quat;
+        let mut rng = Pcg64::seed_from_u64(seed);
+        (0..shapes.len())
+            .map(|i| {
+                let pivot = vec(&mut rng, -1.0, 1.0) * scale + offset;
+                let axis = dir(&mut rng);
+                let key = |time: f32, rng: &mut Pcg64| MotionKey {
+                    time,
+                    translate: vec(rng, -0.5, 0.5) * scale,
+                    rotate: Quat::from_axis_angle(axis, rng.random_range(-1.0..1.0)),
+                };
+                let keys = vec![key(0.0, &mut rng), key(1.0, &mut rng)];
+                (i % 4 == 1).then(|| Motion::new(pivot, keys).unwrap())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn moving_shapes_are_hit_where_they_are_at_the_rays_time() {
+        // Against a static BVH over the shapes moved to that instant (their geometry transformed,
+        // not the ray): same shape, same t up to rounding, at every scale.
+        for (v, &(scale, offset)) in [
+            (1.0, Vec3::ZERO),
+            (1e-3, Vec3::ZERO),
+            (1e3, Vec3::splat(1e4)),
+        ]
+        .iter()
+        .enumerate()
+        {
+            let shapes = scene(21, scale, offset);
+            let motion = motions(&shapes, 22, scale, offset);
+            let accel = Accel::with_motion(shapes.clone(), motion.clone());
+            assert!(accel.has_motion() && accel.motion(1).is_some() && accel.motion(0).is_none());
+            let mut rng = Pcg64::seed_from_u64(23);
+            let mut moving_hits = 0;
+            for k in 0..40 {
+                let time = k as f32 / 39.0;
+                let snapshot: Vec<Shape> = shapes
+                    .iter()
+                    .zip(&motion)
+                    .map(|(s, m)| m.as_ref().map_or(s.clone(), |m| s.moved(&m.at(time))))
+                    .collect();
+                let still = Accel::new(snapshot);
+                let (lo, hi) = accel.bounds();
+                let (slo, shi) = still.bounds();
+                assert!(
+                    lo.cmple(slo).all() && hi.cmpge(shi).all(),
+                    "swept bounds too small"
+                );
+                for _ in 0..500 {
+                    let o = vec(&mut rng, -1.5, 1.5) * scale + offset;
+                    let ray = Ray::new(o, dir(&mut rng)).at_time(time);
+                    let (a, b) = (accel.intersect(&ray), still.intersect(&ray));
+                    assert_eq!(accel.occluded(&ray), b.is_some(), "variant {v} {ray:?}");
+                    match (a, b) {
+                        (None, None) => {}
+                        (Some(a), Some(b)) => {
+                            check_hit_is_finite(&a);
+                            // Both sides round positions of magnitude |o|: t agrees to that.
+                            let tol = 1e-5 * (o.abs().max_element() + scale);
+                            assert!(
+                                (a.t - b.t).abs() <= 1e-4 * b.t + tol
+                                    && (a.shape == b.shape || (a.t - b.t).abs() <= tol),
+                                "variant {v} at {time}: moving {a:?}, snapshot {b:?}"
+                            );
+                            if a.shape == b.shape {
+                                assert!((a.p - b.p).length() <= tol);
+                                assert!((a.ng - b.ng).length() <= 1e-3);
+                            }
+                            moving_hits += usize::from(motion[a.shape as usize].is_some());
+                        }
+                        (a, b) => panic!("variant {v} at {time}: moving {a:?}, snapshot {b:?}"),
+                    }
+                }
+            }
+            assert!(
+                moving_hits > 500,
+                "variant {v}: {moving_hits} hits on moving shapes"
+            );
+        }
+    }
+
+    /// A closed axis-aligned cube mesh, faces counter-clockwise from outside.
+    fn cube(center: Vec3, half: f32) -> TriangleMesh {
+        let corners: Vec<Vec3> = (0..8)
+            .map(|i| {
+                let s = |b: u32| if i >> b & 1 == 1 { 1.0 } else { -1.0 };
+                center + half * Vec3::new(s(0), s(1), s(2))
+            })
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let indices = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        TriangleMesh::new(corners, None, None, indices).unwrap()
+    }
+
+    #[test]
+    fn rays_leaving_a_moving_shape_do_not_hit_it_again() {
+        use crate::spawn_ray;
+        for &(scale, offset) in &[
+            (1.0, Vec3::ZERO),
+            (1e-3, Vec3::ZERO),
+            (1e3, Vec3::splat(1e4)),
+        ] {
+            let center = Vec3::new(0.1, 0.2, 0.3) * scale + offset;
+            for geometry in [
+                Geometry::Sphere(Sphere::new(center, 0.5 * scale)),
+                Geometry::Mesh(cube(center, 0.4 * scale)),
+            ] {
+                let shapes = vec![shape(geometry, 0)];
+                let motion = motions(&[shapes[0].clone(), shapes[0].clone()], 5, scale, offset);
+                let m = motion[1].clone().unwrap();
+                let accel = Accel::with_motion(shapes, vec![Some(m.clone())]);
+                let mut rng = Pcg64::seed_from_u64(6);
+                let mut tested = 0;
+                for k in 0..20_000 {
+                    // Aimed at the shape where it is at that time.
+                    let time = rng.random::<f32>();
+                    let o = vec(&mut rng, -2.0, 2.0) * scale + offset;
+                    let target = m.at(time).point(center) + vec(&mut rng, -0.3, 0.3) * scale;
+                    let ray = Ray::new(o, target - o).at_time(time);
+                    let Some(h) = accel.intersect(&ray) else {
+                        continue;
+                    };
+                    tested += 1;
+                    // Outward: nothing else to hit. Inward: another face, or the sphere's far
+                    // side a chord away.
+                    let out = if k % 2 == 0 { h.ng } else { -h.ng };
+                    let d = (out + 0.999 * dir(&mut rng)).normalize_or(out);
+                    let next = spawn_ray(h.p, h.p_error, h.ng, d).at_time(time);
+                    match accel.intersect(&next) {
+                        None => assert!(d.dot(h.ng) >= 0.0, "{next:?} missed the inside"),
+                        Some(g) => assert!(
+                            d.dot(h.ng) < 0.0 && g.t > 1e-3 * scale || g.ng.dot(h.ng) < 1.0 - 1e-3,
+                            "self-hit at t = {} leaving {h:?}",
+                            g.t
+                        ),
+                    }
+                }
+                assert!(tested > 15_000, "{tested} hits");
+            }
+        }
     }
 }

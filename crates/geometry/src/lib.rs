@@ -11,6 +11,7 @@
 mod accel;
 mod hit;
 mod mesh;
+mod motion;
 mod offset;
 mod sampling;
 mod shape;
@@ -20,6 +21,7 @@ mod triangle;
 pub use accel::{Accel, AccelStats};
 pub use hit::Hit;
 pub use mesh::{MeshError, TriangleMesh};
+pub use motion::{Motion, MotionKey, RigidTransform};
 pub use offset::{offset_ray_origin, spawn_ray, spawn_ray_to, spawn_ray_to_point};
 pub use sampling::SurfaceSample;
 pub use shape::{Geometry, NO_LIGHT, Shape};

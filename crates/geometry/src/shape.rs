@@ -2,6 +2,7 @@
 //! the sampling interface lights use (area and solid-angle densities).
 
 use crate::mesh::TriangleMesh;
+use crate::motion::RigidTransform;
 use crate::sampling::{SurfaceSample, area_sample_to_solid_angle, pdf_area_to_solid_angle};
 use crate::sphere::Sphere;
 use lightlab_core::{Vec2, Vec3};
@@ -26,6 +27,32 @@ pub struct Shape {
 }
 
 impl Shape {
+    /// The shape's rest geometry moved by `m`: where a moving shape is at one instant.
+    pub fn moved(&self, m: &RigidTransform) -> Shape {
+        let geometry = match &self.geometry {
+            Geometry::Mesh(mesh) => Geometry::Mesh(
+                TriangleMesh::new(
+                    mesh.positions.iter().map(|&p| m.point(p)).collect(),
+                    mesh.normals
+                        .as_ref()
+                        .map(|n| n.iter().map(|&n| m.vector(n)).collect()),
+                    mesh.uvs.clone(),
+                    mesh.indices.clone(),
+                )
+                .expect("a rigid motion keeps a valid mesh valid"),
+            ),
+            Geometry::Sphere(s) => Geometry::Sphere(Sphere {
+                center: m.point(s.center),
+                radius: s.radius,
+                orientation: (m.rotation() * s.orientation).normalize(),
+            }),
+        };
+        Shape {
+            geometry,
+            ..self.clone()
+        }
+    }
+
     pub fn area(&self) -> f32 {
         match &self.geometry {
             Geometry::Mesh(m) => m.area(),

@@ -48,7 +48,14 @@ fn main() {
         .unwrap_or_else(|e| panic!("{e}"));
     let (stored, wall, _) = timed(|| {
         pool(2).install(|| {
-            let photons = trace_photons(&scene, 3, 0, 10_000_000, how, &mut Counters::default());
+            let photons = trace_photons(
+                &scene,
+                3,
+                (0, 10_000_000),
+                0.0,
+                how,
+                &mut Counters::default(),
+            );
             let map = PhotonMap::new(photons);
             let qs = queries(map.photons());
             let found: usize = qs
@@ -76,8 +83,9 @@ fn main() {
         for threads in [1, 2] {
             let n = 2_000_000u64;
             let mut c = Counters::default();
-            let (photons, wall, cpu) =
-                timed(|| pool(threads).install(|| trace_photons(&scene, 1, 0, n, how, &mut c)));
+            let (photons, wall, cpu) = timed(|| {
+                pool(threads).install(|| trace_photons(&scene, 1, (0, n), 0.0, how, &mut c))
+            });
             println!(
                 "| {name} | {threads} | {n} | {} | {wall:.2} | {cpu:.2} | {:.3} | {:.3} | {:.2} |",
                 photons.photons.len(),
@@ -97,7 +105,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|");
     for paths in [400_000u64, 4_000_000] {
         let photons = pool(2)
-            .install(|| trace_photons(&scene, 2, 0, paths, how, &mut Counters::default()))
+            .install(|| trace_photons(&scene, 2, (0, paths), 0.0, how, &mut Counters::default()))
             .photons;
         let n = photons.len();
         let qs = queries(&photons);

@@ -51,6 +51,7 @@ pub mod photon;
 mod provenance;
 pub mod radiosity;
 mod render;
+mod shutter;
 mod sink;
 pub mod vcm;
 mod walk;

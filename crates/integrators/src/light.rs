@@ -84,7 +84,8 @@ impl LightTracer {
             min_bounces: cfg.min_bounces,
             sink,
         };
-        from_light(scene, &walk, &mut sampler, &mut visitor, counters);
+        let time = scene.camera.sample_time(&mut sampler);
+        from_light(scene, &walk, time, &mut sampler, &mut visitor, counters);
     }
 }
 

@@ -154,5 +154,5 @@ fn shadowed(scene: &Scene, v: &PathVertex, ls: &LightSample) -> bool {
     } else {
         spawn_ray_to(v.p, v.p_error, v.ng, ls.p, ls.p_error, ls.n)
     };
-    scene.occluded(&ray)
+    scene.occluded(&ray.at_time(v.time))
 }

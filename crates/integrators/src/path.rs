@@ -127,7 +127,8 @@ impl PathTracer {
             max_bounces,
             sink,
         };
-        from_camera(scene, &walk, film, sampler, &mut visitor, counters);
+        let time = scene.camera.sample_time(sampler);
+        from_camera(scene, &walk, film, time, sampler, &mut visitor, counters);
     }
 }
 

@@ -4,6 +4,7 @@
 use crate::desc::{CameraDesc, Lens};
 use glam::{Vec2, Vec3};
 use lightlab_core::Ray;
+use lightlab_samplers::Sampler;
 use lightlab_samplers::warp::square_to_concentric_disk;
 
 /// A connection from a scene point to the camera (see [`Camera::sample_wi`]).
@@ -33,6 +34,8 @@ pub struct Camera {
     /// Half-extent of the image plane at distance 1 along x and y.
     pub half_size: Vec2,
     pub lens: Lens,
+    /// Shutter open and close times (equal: an instant).
+    pub shutter: (f32, f32),
 }
 
 impl Camera {
@@ -59,6 +62,7 @@ impl Camera {
             height: h,
             half_size,
             lens: d.lens,
+            shutter: d.shutter,
         }
     }
 
@@ -75,6 +79,25 @@ impl Camera {
             height,
             half_size,
             ..self.clone()
+        }
+    }
+
+    /// Whether the shutter stays open over an interval (motion blur), not an instant.
+    #[inline]
+    pub fn shutter_open(&self) -> bool {
+        self.shutter.1 > self.shutter.0
+    }
+
+    /// The time of one sample: uniform over the shutter from one dimension of `sampler`, drawn
+    /// only when the shutter is open (an instant costs no dimension, so images of scenes without
+    /// motion blur keep their bits).
+    #[inline]
+    pub fn sample_time<S: Sampler>(&self, sampler: &mut S) -> f32 {
+        let (open, close) = self.shutter;
+        if close > open {
+            open + (close - open) * sampler.next_1d()
+        } else {
+            open
         }
     }
 
@@ -210,6 +233,7 @@ mod tests {
             resolution: res,
             lens: Lens::Pinhole,
             mirrored: false,
+            shutter: (0.0, 0.0),
         }
     }
 

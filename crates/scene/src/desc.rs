@@ -68,6 +68,8 @@ pub struct CameraDesc {
     /// The image mirrored left to right (a sensor transform with negative determinant; set by the
     /// Mitsuba importer). RON cameras are never mirrored.
     pub mirrored: bool,
+    /// Shutter open and close times.
+    pub shutter: (f32, f32),
 }
 
 #[derive(Deserialize)]
@@ -87,6 +89,11 @@ pub(crate) struct CameraRaw {
     /// `Pinhole` or `ThinLens(aperture_radius: r, focus_distance: d)`. Default `Pinhole`.
     #[serde(default)]
     pub lens: Lens,
+    /// `(open, close)`: every camera sample (and light path) gets a time uniform in the interval,
+    /// where shapes with a `motion` are then. Equal times (the default `(0, 0)`) take an instant:
+    /// no motion blur, and no sample dimension is spent on time.
+    #[serde(default)]
+    pub shutter: (f32, f32),
 }
 
 fn default_up() -> Vec3 {
@@ -149,6 +156,12 @@ impl TryFrom<CameraRaw> for CameraDesc {
                 ));
             }
         }
+        let (open, close) = c.shutter;
+        if !(open.is_finite() && close.is_finite() && open <= close) {
+            return Err(format!(
+                "camera shutter must be (open, close) with finite open ≤ close, got ({open}, {close})"
+            ));
+        }
         Ok(CameraDesc {
             eye: c.eye,
             target: c.target,
@@ -157,6 +170,7 @@ impl TryFrom<CameraRaw> for CameraDesc {
             resolution: c.resolution,
             lens: c.lens,
             mirrored: false,
+            shutter: c.shutter,
         })
     }
 }
@@ -563,6 +577,7 @@ pub struct ShapeDesc {
     pub material: String,
     pub emission: Option<EmissionDesc>,
     pub transform: TransformDesc,
+    pub motion: Option<MotionDesc>,
 }
 
 #[derive(Deserialize)]
@@ -578,6 +593,9 @@ struct ShapeRaw {
     /// Applied to the geometry: scale, then rotations in order, then translation. Default: identity.
     #[serde(default)]
     transform: TransformDesc,
+    /// Rigid motion over the camera's shutter, applied after `transform`. Default: at rest.
+    #[serde(default)]
+    motion: Option<MotionDesc>,
 }
 
 impl TryFrom<ShapeRaw> for ShapeDesc {
@@ -585,6 +603,12 @@ impl TryFrom<ShapeRaw> for ShapeDesc {
     fn try_from(s: ShapeRaw) -> Result<Self, String> {
         if s.emission.is_some() && s.geometry.local_area() == Some(0.0) {
             return Err("emissive shape has zero area: an area light needs a surface".into());
+        }
+        if s.emission.is_some() && s.motion.is_some() {
+            return Err(
+                "an emissive shape cannot move: light sampling and emission use emitters at rest"
+                    .into(),
+            );
         }
         if matches!(s.geometry.0, GeometryRaw::Sphere { .. }) {
             let v = s.transform.scale;
@@ -600,6 +624,78 @@ impl TryFrom<ShapeRaw> for ShapeDesc {
             material: s.material,
             emission: s.emission,
             transform: s.transform,
+            motion: s.motion,
+        })
+    }
+}
+
+/// `Motion(pivot: (0, 0.3, 0), keys: [Key(time: 0, translate: (-0.2, 0, 0)), Key(time: 1,
+/// translate: (0.2, 0, 0), rotate: [(axis: (0, 0, 1), degrees: -60)])])`: keyframed rigid motion.
+/// At time t a point x of the (transformed) shape is at R(t)·(x − pivot) + pivot + T(t), T
+/// interpolated linearly and R by slerp (the shorter arc: split turns of 180° or more into more
+/// keys) between the keys around t; before the first key and after the last the shape stays there.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Motion", try_from = "MotionRaw")]
+pub struct MotionDesc {
+    pub pivot: DVec3,
+    pub keys: Vec<KeyDesc>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "Motion")]
+struct MotionRaw {
+    /// The point rotations turn about. Default (0, 0, 0).
+    #[serde(default)]
+    pivot: DVec3,
+    /// At least two keys, in strictly increasing time. Required.
+    keys: Vec<KeyDesc>,
+}
+
+/// One keyframe of a [`MotionDesc`].
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Key")]
+pub struct KeyDesc {
+    /// Required.
+    pub time: f32,
+    /// Default (0, 0, 0).
+    #[serde(default)]
+    pub translate: DVec3,
+    /// Right-handed rotations about the pivot, applied in order. Default none.
+    #[serde(default)]
+    pub rotate: Vec<RotationDesc>,
+}
+
+impl TryFrom<MotionRaw> for MotionDesc {
+    type Error = String;
+    fn try_from(m: MotionRaw) -> Result<Self, String> {
+        finite_dvec("motion pivot", m.pivot)?;
+        if m.keys.len() < 2 {
+            return Err(format!(
+                "a Motion needs at least two keys, got {}",
+                m.keys.len()
+            ));
+        }
+        for k in &m.keys {
+            if !k.time.is_finite() {
+                return Err(format!("motion key time must be finite, got {}", k.time));
+            }
+            finite_dvec("motion key translate", k.translate)?;
+            for r in &k.rotate {
+                finite_vec("rotation axis", r.axis)?;
+                if r.axis.length_squared() == 0.0 || !r.degrees.is_finite() {
+                    return Err("rotation needs a non-zero axis and finite degrees".into());
+                }
+            }
+        }
+        if let Some(w) = m.keys.windows(2).find(|w| !(w[0].time < w[1].time)) {
+            return Err(format!(
+                "motion key times must increase strictly, got {} then {}",
+                w[0].time, w[1].time
+            ));
+        }
+        Ok(MotionDesc {
+            pivot: m.pivot,
+            keys: m.keys,
         })
     }
 }
@@ -864,6 +960,18 @@ fn one() -> Vec3 {
 pub struct RotationDesc {
     pub axis: Vec3,
     pub degrees: f32,
+}
+
+impl RotationDesc {
+    /// The rotations applied in order, as one quaternion (in f64).
+    pub fn compose(rotations: &[RotationDesc]) -> glam::DQuat {
+        rotations.iter().fold(glam::DQuat::IDENTITY, |q, r| {
+            glam::DQuat::from_axis_angle(
+                r.axis.as_dvec3().normalize(),
+                (r.degrees as f64).to_radians(),
+            ) * q
+        })
+    }
 }
 
 impl TryFrom<TransformRaw> for TransformDesc {

@@ -10,12 +10,14 @@
 
 use crate::desc::{
     ColourDesc, GeometryDesc, GeometryRaw, LightDesc, LightRaw, MaterialDesc, MaterialRaw,
-    Microfacets, RotationDesc, Roughness, SceneDesc, TransformDesc,
+    Microfacets, MotionDesc, RotationDesc, Roughness, SceneDesc, TransformDesc,
 };
 use crate::{Camera, EnvMap, Light, Scene, SceneError};
 use glam::{DMat3, DQuat, DVec3, Mat3, Vec2, Vec3};
 use lightlab_core::Rgb;
-use lightlab_geometry::{Accel, Geometry, NO_LIGHT, Shape, Sphere, TriangleMesh};
+use lightlab_geometry::{
+    Accel, Geometry, Motion, MotionKey, NO_LIGHT, Shape, Sphere, TriangleMesh,
+};
 use lightlab_materials::{Bsdf, Distribution, Material, Plastic, RoughPlastic};
 use std::path::Path;
 
@@ -149,6 +151,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
     let mut shapes = Vec::with_capacity(desc.shapes.len());
     let mut lights = Vec::new();
     let mut features = Features::default();
+    let mut motions = Vec::with_capacity(desc.shapes.len());
     for (i, ((material, g), s)) in world.into_iter().zip(&desc.shapes).enumerate() {
         let needle = match &s.geometry.0 {
             GeometryRaw::Obj { file, .. } => format!("\"{file}\""),
@@ -188,6 +191,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
             ));
         }
         shapes.push(shape);
+        motions.push(s.motion.as_ref().map(|m| motion(m, origin)));
     }
     let env = environment_map(&desc.lights, base)
         .map_err(|(needle, msg)| SceneError::at(path, text, &needle, msg))?;
@@ -207,7 +211,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
     }
     let mut scene = Scene::new(
         camera,
-        Accel::new(shapes),
+        Accel::with_motion(shapes, motions),
         materials,
         material_names,
         textures,
@@ -442,12 +446,7 @@ fn environment_map(
     let needle = format!("\"{file}\"");
     let (w, h, texels) =
         crate::image::read_rgb_image(&base.join(file), false).map_err(|m| (needle.clone(), m))?;
-    let rotation = rotate.iter().fold(DQuat::IDENTITY, |q, r| {
-        DQuat::from_axis_angle(
-            r.axis.as_dvec3().normalize(),
-            (r.degrees as f64).to_radians(),
-        ) * q
-    });
+    let rotation = RotationDesc::compose(rotate);
     let to_world = DMat3::from_quat(rotation).as_mat3();
     let constant = lights.iter().fold(Rgb::BLACK, |acc, l| match l.0 {
         LightRaw::Environment { radiance } => acc + radiance,
@@ -456,6 +455,21 @@ fn environment_map(
     let map = EnvMap::new(w, h, texels, scale, constant, to_world)
         .map_err(|m| (needle, format!("{file}: {m}")))?;
     Ok(Some((map, constant)))
+}
+
+/// A shape's keyframed motion in render space (the pivot moved by −`origin`).
+fn motion(m: &MotionDesc, origin: DVec3) -> Motion {
+    let keys = m
+        .keys
+        .iter()
+        .map(|k| MotionKey {
+            time: k.time,
+            translate: k.translate.as_vec3(),
+            rotate: RotationDesc::compose(&k.rotate).as_quat(),
+        })
+        .collect();
+    Motion::new((m.pivot - origin).as_vec3(), keys)
+        .expect("MotionDesc checked its keys when it was parsed")
 }
 
 /// An affine transform: p ↦ linear·p + translate (in f64), normals by the inverse transpose.
@@ -468,12 +482,7 @@ struct Affine {
 
 impl Affine {
     fn new(t: &TransformDesc) -> Affine {
-        let rotation = t.rotate.iter().fold(DQuat::IDENTITY, |q, r| {
-            DQuat::from_axis_angle(
-                r.axis.as_dvec3().normalize(),
-                (r.degrees as f64).to_radians(),
-            ) * q
-        });
+        let rotation = RotationDesc::compose(&t.rotate);
         let linear = DMat3::from_quat(rotation) * DMat3::from_diagonal(t.scale.as_dvec3());
         Affine {
             linear,

@@ -95,6 +95,18 @@ impl Scene {
         self.accel.occluded(ray)
     }
 
+    /// Whether any shape moves (`motion` in the scene file).
+    #[inline]
+    pub fn has_motion(&self) -> bool {
+        self.accel.has_motion()
+    }
+
+    /// Whether the image integrates over time: shapes move and the shutter is open.
+    #[inline]
+    pub fn motion_blur(&self) -> bool {
+        self.has_motion() && self.camera.shutter_open()
+    }
+
     /// Chooses a light with probability proportional to its power: (index, probability).
     #[inline]
     pub fn sample_light(&self, u: f32) -> Option<(u32, f32)> {

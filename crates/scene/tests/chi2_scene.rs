@@ -305,6 +305,7 @@ fn camera(lens: Lens) -> Camera {
             resolution: (32, 18),
             lens,
             mirrored: false,
+            shutter: (0.0, 0.0),
         },
         glam::DVec3::ZERO,
     )

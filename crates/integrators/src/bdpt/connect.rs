@@ -65,6 +65,8 @@ impl Bdpt {
         sampler.start_pixel_sample(seed, pixel, index);
         light_sampler.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, index);
         let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+        // One instant for both subpaths: their connections join points of one scene.
+        let time = scene.camera.sample_time(sampler);
         camera.clear();
         light.clear();
         // A full path of at most max_bounces scattering vertices: the camera side may reach an
@@ -73,12 +75,13 @@ impl Bdpt {
         self.camera_subpath(
             scene,
             film,
+            time,
             sampler,
             max_bounces.saturating_add(1),
             camera,
             counters,
         );
-        self.light_subpath(scene, light_sampler, max_bounces, light, counters);
+        self.light_subpath(scene, time, light_sampler, max_bounces, light, counters);
         for t in 1..=camera.len() {
             let (u_light, u_point, u_lens) = (
                 light_sampler.next_1d(),
@@ -216,6 +219,7 @@ pub(crate) fn connection(
         let mut v = PathVertex::new(
             Kind::Light { light: light_index },
             ls.p,
+            pt.time,
             ls.li / (ls.pdf_w * pmf),
         );
         v.p_error = ls.p_error;

@@ -11,43 +11,48 @@ use lightlab_samplers::Sampler;
 use lightlab_scene::Scene;
 
 impl Bdpt {
-    /// The camera subpath through raster position `film`: the camera vertex and up to
-    /// `max_depth` surface vertices (and a vertex at infinity if it escapes to an environment).
+    /// The camera subpath through raster position `film` at instant `time`: the camera vertex and
+    /// up to `max_depth` surface vertices (and a vertex at infinity if it escapes to an
+    /// environment).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn camera_subpath<S: Sampler>(
         &self,
         scene: &Scene,
         film: Vec2,
+        time: f32,
         sampler: &mut S,
         max_depth: u32,
         path: &mut Vec<PathVertex>,
         counters: &mut Counters,
     ) {
         let walk = self.walk(TransportMode::Radiance, max_depth);
-        camera_subpath(scene, &walk, film, sampler, path, counters);
+        camera_subpath(scene, &walk, film, time, sampler, path, counters);
     }
 
-    /// The light subpath (pbrt-v4 `GenerateLightSubpath`): its origin on a light and up to
-    /// `max_depth` surface vertices.
+    /// The light subpath (pbrt-v4 `GenerateLightSubpath`) at instant `time`: its origin on a light
+    /// and up to `max_depth` surface vertices.
     pub(super) fn light_subpath<S: Sampler>(
         &self,
         scene: &Scene,
+        time: f32,
         sampler: &mut S,
         max_depth: u32,
         path: &mut Vec<PathVertex>,
         counters: &mut Counters,
     ) {
         let walk = self.walk(TransportMode::Importance, max_depth);
-        light_subpath(scene, &walk, sampler, path, counters);
+        light_subpath(scene, &walk, time, sampler, path, counters);
     }
 }
 
-/// Appends the camera subpath through raster position `film`, walked as `walk` says (radiance),
-/// to `path`: the camera vertex, its surface vertices, and a vertex at infinity if it escapes
-/// to an environment.
+/// Appends the camera subpath through raster position `film` at instant `time`, walked as `walk`
+/// says (radiance), to `path`: the camera vertex, its surface vertices, and a vertex at infinity
+/// if it escapes to an environment.
 pub(crate) fn camera_subpath<S: Sampler>(
     scene: &Scene,
     walk: &Walk,
     film: Vec2,
+    time: f32,
     sampler: &mut S,
     path: &mut Vec<PathVertex>,
     counters: &mut Counters,
@@ -57,14 +62,15 @@ pub(crate) fn camera_subpath<S: Sampler>(
         camera: true,
         path,
     };
-    from_camera(scene, walk, film, sampler, &mut subpath, counters);
+    from_camera(scene, walk, film, time, sampler, &mut subpath, counters);
 }
 
-/// Appends a light subpath, walked as `walk` says (importance), to `path`: its origin on a
-/// light and its surface vertices.
+/// Appends a light subpath at instant `time`, walked as `walk` says (importance), to `path`: its
+/// origin on a light and its surface vertices.
 pub(crate) fn light_subpath<S: Sampler>(
     scene: &Scene,
     walk: &Walk,
+    time: f32,
     sampler: &mut S,
     path: &mut Vec<PathVertex>,
     counters: &mut Counters,
@@ -74,7 +80,7 @@ pub(crate) fn light_subpath<S: Sampler>(
         camera: false,
         path,
     };
-    from_light(scene, walk, sampler, &mut subpath, counters);
+    from_light(scene, walk, time, sampler, &mut subpath, counters);
 }
 
 /// A subpath stored vertex by vertex, with the reverse density of each vertex set once the walk
@@ -121,7 +127,7 @@ impl Visitor for Subpath<'_> {
             return;
         }
         if let Some(env) = self.scene.environment_light() {
-            let mut v = PathVertex::new(Kind::Light { light: env }, ray.o + ray.d, beta);
+            let mut v = PathVertex::new(Kind::Light { light: env }, ray.o + ray.d, ray.time, beta);
             v.class = arrival.class;
             v.depth = arrival.class.len();
             v.infinite = true;

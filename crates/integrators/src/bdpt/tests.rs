@@ -68,7 +68,7 @@ pub(crate) fn camera_paths_to_lights(scene: &Scene, seed: u64) -> Vec<Vec<PathVe
             ((pixel / 256) % 256) as f32 + 0.5,
         );
         let mut z = Vec::new();
-        bdpt.camera_subpath(scene, film, &mut sampler, 8, &mut z, &mut counters);
+        bdpt.camera_subpath(scene, film, 0.0, &mut sampler, 8, &mut z, &mut counters);
         let Some(last) = z.last() else { continue };
         if z.len() >= 3 && last.emitter != NO_LIGHT && !last.le(scene, &z[z.len() - 2]).is_black() {
             out.push(z);
@@ -240,6 +240,7 @@ pub(crate) fn camera_through(
     bdpt.camera_subpath(
         scene,
         film,
+        0.0,
         &mut sampler,
         n as u32 + 1,
         &mut camera,
@@ -285,6 +286,7 @@ pub(crate) fn production_paths(
         let mut light = Vec::new();
         bdpt.light_subpath(
             scene,
+            0.0,
             &mut sampler,
             vertices,
             &mut light,
@@ -301,7 +303,7 @@ pub(crate) fn production_paths(
                 unoccluded(
                     scene,
                     last,
-                    &PathVertex::new(Kind::Camera, cs.p_lens, Rgb::WHITE),
+                    &PathVertex::new(Kind::Camera, cs.p_lens, 0.0, Rgb::WHITE),
                 )
             });
         if !visible {

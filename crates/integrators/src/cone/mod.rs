@@ -316,6 +316,12 @@ fn triangle_solid_angle(a: Vec3, b: Vec3, c: Vec3) -> f32 {
 
 /// Why `scene` is beyond cone tracing, if it is.
 fn check(scene: &Scene) -> Result<(), String> {
+    if scene.has_motion() {
+        return Err(
+            "cone tracing intersects cones with the shapes at rest, and the scene's shapes move"
+                .into(),
+        );
+    }
     if !matches!(scene.camera.lens, Lens::Pinhole) {
         return Err(
             "cone tracing starts its cones at a pinhole: the scene's camera has a thin lens".into(),

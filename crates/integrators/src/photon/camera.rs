@@ -113,15 +113,15 @@ impl VisiblePoint {
 /// Seed offset of the next-event-estimation stream (independent of the camera path's stream).
 const LIGHT_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
 
-/// The camera walk of a sample of pixel (x, y) of an image `width` wide: the path's random
-/// numbers from stream (seed, pixel, `camera_index`), next-event estimation's from an independent
-/// stream at `light_index`. Returns the visible point, if any, and the path's sampler, which a
-/// final gather continues with.
+/// The camera walk of a sample of pixel (x, y) of an image `width` wide at instant `time`: the
+/// path's random numbers from stream (seed, pixel, `camera_index`), next-event estimation's from
+/// an independent stream at `light_index`. Returns the visible point, if any, and the path's
+/// sampler, which a final gather continues with.
 #[allow(clippy::too_many_arguments)]
 pub fn trace_pixel(
     scene: &Scene,
     cfg: &CameraWalk,
-    seed: u64,
+    (seed, time): (u64, f32),
     (x, y, width): (u32, u32, u32),
     camera_index: u64,
     light_index: u64,
@@ -134,11 +134,19 @@ pub fn trace_pixel(
     let mut lights = Independent::new();
     lights.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, light_index);
     let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-    let vp = walk(scene, cfg, film, &mut sampler, &mut lights, l, counters);
+    let vp = walk(
+        scene,
+        cfg,
+        (film, time),
+        &mut sampler,
+        &mut lights,
+        l,
+        counters,
+    );
     (vp, sampler)
 }
 
-/// Traces the camera ray through raster position `film`, adds the radiance it estimates on the
+/// Traces the camera ray through raster position `film` at instant `time`, adds the radiance it estimates on the
 /// way (emission and direct light) to `l`, by path class, and returns the visible point, if
 /// the path reached one. `sampler` drives the path (lens, BSDF and roulette choices); `lights`
 /// drives next-event estimation, so that progressive photon mapping can keep a path fixed while
@@ -146,7 +154,7 @@ pub fn trace_pixel(
 pub fn walk<S: Sampler, T: Sampler>(
     scene: &Scene,
     cfg: &CameraWalk,
-    film: Vec2,
+    (film, time): (Vec2, f32),
     sampler: &mut S,
     lights: &mut T,
     l: &mut Sink,
@@ -172,7 +180,7 @@ pub fn walk<S: Sampler, T: Sampler>(
         found: None,
         delta_only: false,
     };
-    from_camera(scene, &walk, film, sampler, &mut visitor, counters);
+    from_camera(scene, &walk, film, time, sampler, &mut visitor, counters);
     visitor.found
 }
 

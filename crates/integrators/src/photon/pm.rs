@@ -221,6 +221,14 @@ struct Maps {
 impl Integrator for PhotonMapper {
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {
         let c = &self.config;
+        if scene.motion_blur() {
+            return Err(
+                "PhotonMap builds its photon maps once, for one instant, but the scene's \
+                 shapes move while the shutter is open: use Sppm or Ppm (one instant per pass), \
+                 or close the shutter"
+                    .into(),
+            );
+        }
         super::config::check_radius("gather radius", c.gather.radius(), scene)?;
         super::config::check_radius("caustic_gather radius", c.caustic_gather.radius(), scene)
     }
@@ -238,6 +246,8 @@ impl Integrator for PhotonMapper {
         let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
         let max = c.max_bounces.unwrap_or(u32::MAX);
         let mut counters = Counters::default();
+        // The maps are built once, for one instant (`check` refuses motion blur).
+        let time = scene.camera.shutter.0;
         let tracing = |keep| PhotonTracing {
             max_bounces: max,
             russian_roulette: c.russian_roulette,
@@ -247,8 +257,8 @@ impl Integrator for PhotonMapper {
             PhotonMap::new(trace_photons(
                 scene,
                 seed,
-                0,
-                c.photons,
+                (0, c.photons),
+                time,
                 tracing(Keep::All),
                 &mut counters,
             ))
@@ -257,8 +267,8 @@ impl Integrator for PhotonMapper {
             PhotonMap::new(trace_photons(
                 scene,
                 seed ^ CAUSTIC_STREAM,
-                0,
-                c.caustic_photons,
+                (0, c.caustic_photons),
+                time,
                 tracing(Keep::Caustic),
                 &mut counters,
             ))
@@ -288,7 +298,7 @@ impl Integrator for PhotonMapper {
                 let (vp, mut sampler) = camera::trace_pixel(
                     scene,
                     &walk,
-                    seed,
+                    (seed, time),
                     (x, y, width),
                     index,
                     index,

@@ -41,6 +41,7 @@ use crate::film::Film;
 use crate::passes::{PassSpec, Schedule, run_progressive_passes};
 use crate::paths::Router;
 use crate::render::{Counters, PixelLimit, PixelVariance, Technique, named};
+use crate::shutter::pass_time;
 use crate::sink::Sink;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use lightlab_core::{INV_PI, Progress, Rgb};
@@ -82,6 +83,8 @@ struct PixelState {
 struct Pass {
     map: Option<Index>,
     global_radius_sq: f32,
+    /// The pass's instant, shared by its photons and visible points.
+    time: f32,
 }
 
 impl Progressive {
@@ -151,6 +154,7 @@ impl Progressive {
         let pass = RwLock::new(Pass {
             map: None,
             global_radius_sq: r1 * r1,
+            time: 0.0,
         });
         let mut photons_stored = 0u64;
         let spec = PassSpec {
@@ -167,11 +171,13 @@ impl Progressive {
                 let i = i as f32;
                 pass.global_radius_sq *= (i + c.alpha) / (i + 1.0);
             }
+            // One instant per pass for its photons and visible points (`shutter`).
+            pass.time = pass_time(&scene.camera, seed, i as u64);
             let photons = trace_photons(
                 scene,
                 seed,
-                i as u64 * c.photons_per_pass,
-                c.photons_per_pass,
+                (i as u64 * c.photons_per_pass, c.photons_per_pass),
+                pass.time,
                 tracing,
                 counters,
             )
@@ -203,7 +209,7 @@ impl Progressive {
                 let (vp, _) = camera::trace_pixel(
                     scene,
                     &walk,
-                    seed,
+                    (seed, pass.time),
                     (x, y, width),
                     camera_index,
                     index,

@@ -103,11 +103,11 @@ pub struct PhotonTracing {
     pub keep: Keep,
 }
 
-/// The start of a photon path: the emission ray and its flux (before division by the number of
-/// paths), as the shared walk's `emit` samples it. `None` when the scene does not emit or the sample has
-/// zero density.
-pub fn emit(scene: &Scene, sampler: &mut Independent) -> Option<(Ray, Rgb)> {
-    walk::emit(scene, sampler).map(|e| (e.ray, e.beta))
+/// The start of a photon path at instant `time`: the emission ray and its flux (before division
+/// by the number of paths), as the shared walk's `emit` samples it. `None` when the scene does not
+/// emit or the sample has zero density.
+pub fn emit(scene: &Scene, sampler: &mut Independent, time: f32) -> Option<(Ray, Rgb)> {
+    walk::emit(scene, sampler, time).map(|e| (e.ray, e.beta))
 }
 
 /// A sampler positioned at the start of photon path `index` of the stream `seed`.
@@ -140,13 +140,13 @@ impl Traced {
     }
 }
 
-/// Traces photon paths `first .. first + count` and returns their photons in path order, each
-/// path's flux divided by `count`.
+/// Traces photon paths `first .. first + count` at instant `time` and returns their photons in
+/// path order, each path's flux divided by `count`.
 pub fn trace_photons(
     scene: &Scene,
     seed: u64,
-    first: u64,
-    count: u64,
+    (first, count): (u64, u64),
+    time: f32,
     how: PhotonTracing,
     counters: &mut Counters,
 ) -> Traced {
@@ -165,7 +165,15 @@ pub fn trace_photons(
                 if j == 0 || group_of(j) != group_of(j - 1) {
                     starts.push((group_of(j), photons.len()));
                 }
-                trace_one(scene, seed, first + j, scale, how, &mut photons, &mut c);
+                trace_one(
+                    scene,
+                    (seed, first + j),
+                    time,
+                    scale,
+                    how,
+                    &mut photons,
+                    &mut c,
+                );
             }
             (photons, starts, c)
         })
@@ -195,8 +203,8 @@ pub fn trace_photons(
 
 fn trace_one(
     scene: &Scene,
-    seed: u64,
-    index: u64,
+    (seed, index): (u64, u64),
+    time: f32,
     scale: f32,
     how: PhotonTracing,
     photons: &mut Vec<Photon>,
@@ -217,7 +225,7 @@ fn trace_one(
         photons,
         delta_only: false,
     };
-    from_light(scene, &walk, &mut sampler, &mut deposit, counters);
+    from_light(scene, &walk, time, &mut sampler, &mut deposit, counters);
 }
 
 /// The photon-tracing visitor: a photon at every non-delta vertex of the light walk.

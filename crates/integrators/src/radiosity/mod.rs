@@ -327,6 +327,12 @@ impl Radiosity {
 /// Why `scene` cannot be solved by radiosity, if it cannot: every surface Lambertian with a
 /// constant albedo, every light an area light.
 fn check(scene: &Scene) -> Result<(), String> {
+    if scene.has_motion() {
+        return Err(
+            "radiosity solves for the patches of a scene at rest, and the scene's shapes move"
+                .into(),
+        );
+    }
     if let Some(light) = scene
         .lights
         .iter()

@@ -51,6 +51,7 @@ use crate::paths::Router;
 use crate::photon::config::{Length, check_radius};
 use crate::provenance::{Logged, Outlier, SplatSource};
 use crate::render::{Counters, PixelVariance, Technique};
+use crate::shutter::pass_time;
 use crate::walk::{Directions, PathVertex, Walk};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
@@ -260,6 +261,8 @@ const CONNECT_STREAM: u64 = 0x7663_6d5f_636f_6e6e;
 /// What every pixel of a pass shares.
 struct Pass {
     light: LightPass,
+    /// The pass's instant, shared by its light and camera subpaths (`shutter`).
+    time: f32,
     techniques: Techniques,
     /// 1 / (π r² N), the merges' density-estimation normalisation.
     merge_scale: f32,
@@ -488,11 +491,13 @@ impl Vcm {
         let max = self.config.max_bounces.unwrap_or(u32::MAX - 2);
         let radius = self.radius(scene, i);
         let techniques = self.techniques(radius, paths);
+        let time = pass_time(&scene.camera, seed, i as u64);
         let light = LightPass::trace(
             scene,
             &self.walk(TransportMode::Importance, max),
             &techniques,
             (seed, i),
+            time,
             paths,
             radius,
             counters,
@@ -501,6 +506,7 @@ impl Vcm {
             (1.0 / (std::f64::consts::PI * (radius as f64).powi(2) * paths as f64)) as f32;
         Pass {
             light,
+            time,
             techniques,
             merge_scale,
         }
@@ -536,7 +542,15 @@ impl Vcm {
         camera.clear();
         quantities.clear();
         let camera_walk = self.walk(TransportMode::Radiance, max.saturating_add(1));
-        camera_subpath(scene, &camera_walk, film, &mut sampler, camera, counters);
+        camera_subpath(
+            scene,
+            &camera_walk,
+            film,
+            pass.time,
+            &mut sampler,
+            camera,
+            counters,
+        );
         techniques.subpath(camera, false, false, quantities);
         let (light, light_q) = pass.light.path(pixel);
         let pixels = scene.camera.width as usize * scene.camera.height as usize;

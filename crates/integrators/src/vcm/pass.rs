@@ -48,13 +48,16 @@ pub(super) struct LightPass {
 }
 
 impl LightPass {
-    /// Traces `paths` light subpaths of pass `pass` as `walk` says, with the MIS quantities of
-    /// `techniques`, and indexes their mergeable vertices for gathers of `radius`.
+    /// Traces `paths` light subpaths of pass `pass` at instant `time` as `walk` says, with the
+    /// MIS quantities of `techniques`, and indexes their mergeable vertices for gathers of
+    /// `radius`.
+    #[allow(clippy::too_many_arguments)]
     pub fn trace(
         scene: &Scene,
         walk: &Walk,
         techniques: &Techniques,
         (seed, pass): (u64, u32),
+        time: f32,
         paths: usize,
         radius: f32,
         counters: &mut Counters,
@@ -81,6 +84,7 @@ impl LightPass {
                     light_subpath(
                         scene,
                         walk,
+                        time,
                         &mut sampler,
                         &mut out.vertices,
                         &mut out.counters,

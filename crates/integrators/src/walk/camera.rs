@@ -9,11 +9,12 @@ use lightlab_core::{Ray, Rgb};
 use lightlab_geometry::spawn_ray_to_point;
 use lightlab_scene::Scene;
 
-/// The camera vertex and ray through raster position `film` with lens sample `u_lens`.
+/// The camera vertex and ray through raster position `film` with lens sample `u_lens`, at
+/// instant `time`.
 #[inline]
-pub(crate) fn camera_ray(scene: &Scene, film: Vec2, u_lens: Vec2) -> (PathVertex, Ray) {
-    let ray = scene.camera.generate_ray(film, u_lens);
-    (PathVertex::new(Kind::Camera, ray.o, Rgb::WHITE), ray)
+pub(crate) fn camera_ray(scene: &Scene, film: Vec2, u_lens: Vec2, time: f32) -> (PathVertex, Ray) {
+    let ray = scene.camera.generate_ray(film, u_lens).at_time(time);
+    (PathVertex::new(Kind::Camera, ray.o, time, Rgb::WHITE), ray)
 }
 
 /// A light-side vertex seen through the lens.
@@ -42,7 +43,12 @@ pub(crate) fn connect_to_lens(
     if !(cs.pdf_w > 0.0) {
         return None;
     }
-    let camera = PathVertex::new(Kind::Camera, cs.p_lens, Rgb::splat(cs.we / cs.pdf_w));
+    let camera = PathVertex::new(
+        Kind::Camera,
+        cs.p_lens,
+        v.time,
+        Rgb::splat(cs.we / cs.pdf_w),
+    );
     let contribution = value(&camera, cs.wi) * camera.beta * v.ns.dot(cs.wi).abs();
     if contribution.is_black() {
         return None;
@@ -54,7 +60,7 @@ pub(crate) fn connect_to_lens(
     } else {
         Ray::segment(v.p, cs.p_lens - v.p, 1.0 - 1e-4)
     };
-    if scene.occluded(&ray) {
+    if scene.occluded(&ray.at_time(v.time)) {
         return None;
     }
     Some(LensConnection {

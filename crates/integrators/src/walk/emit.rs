@@ -21,15 +21,21 @@ pub(crate) struct Emitted {
     pub pdf: f32,
 }
 
-/// Samples a light path's start with three dimensions of `sampler`: light (1), position (2),
-/// direction (2). `None` when the scene does not emit or the sample has zero density.
-pub(crate) fn emit<S: Sampler>(scene: &Scene, sampler: &mut S) -> Option<Emitted> {
+/// Samples a light path's start at instant `time` with three dimensions of `sampler`: light (1),
+/// position (2), direction (2). `None` when the scene does not emit or the sample has zero
+/// density. (Emitters do not move, so `time` only travels with the path.)
+pub(crate) fn emit<S: Sampler>(scene: &Scene, sampler: &mut S, time: f32) -> Option<Emitted> {
     let (u_light, u_pos, u_dir) = (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
     let (light, pmf) = scene.sample_light(u_light)?;
     let l = &scene.lights[light as usize];
     let em = l.sample_le(scene.shapes(), scene.center, scene.radius, u_pos, u_dir)?;
     let infinite = l.is_infinite();
-    let mut origin = PathVertex::new(Kind::Light { light }, em.p, em.le / (pmf * em.pdf_pos));
+    let mut origin = PathVertex::new(
+        Kind::Light { light },
+        em.p,
+        time,
+        em.le / (pmf * em.pdf_pos),
+    );
     origin.p_error = em.p_error;
     if infinite {
         origin.infinite = true;
@@ -43,11 +49,11 @@ pub(crate) fn emit<S: Sampler>(scene: &Scene, sampler: &mut S) -> Option<Emitted
         }
     }
     let (cos, ray) = if em.delta_pos || infinite {
-        (1.0, Ray::new(em.p, em.dir))
+        (1.0, Ray::new(em.p, em.dir).at_time(time))
     } else {
         (
             em.n.dot(em.dir).abs(),
-            spawn_ray(em.p, em.p_error, em.n, em.dir),
+            spawn_ray(em.p, em.p_error, em.n, em.dir).at_time(time),
         )
     };
     Some(Emitted {

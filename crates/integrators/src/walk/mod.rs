@@ -146,17 +146,19 @@ pub(crate) fn random_walk<S: Sampler, V: Visitor>(
     );
 }
 
-/// Walks from the camera through raster position `film` (lens: 2 dimensions).
+/// Walks from the camera through raster position `film` at instant `time` (lens: 2 dimensions).
+#[allow(clippy::too_many_arguments)]
 #[inline]
 pub(crate) fn from_camera<S: Sampler, V: Visitor>(
     scene: &Scene,
     walk: &Walk,
     film: Vec2,
+    time: f32,
     sampler: &mut S,
     visitor: &mut V,
     counters: &mut Counters,
 ) {
-    let (camera, ray) = camera_ray(scene, film, sampler.next_2d());
+    let (camera, ray) = camera_ray(scene, film, sampler.next_2d(), time);
     let pdf = if V::DENSITIES {
         scene.camera.pdf_we_dir(ray.o, ray.d)
     } else {
@@ -175,16 +177,18 @@ pub(crate) fn from_camera<S: Sampler, V: Visitor>(
     );
 }
 
-/// Walks from a point and direction sampled on a light ([`emit`]: 5 dimensions), carrying flux.
+/// Walks from a point and direction sampled on a light ([`emit`]: 5 dimensions) at instant
+/// `time`, carrying flux.
 #[inline]
 pub(crate) fn from_light<S: Sampler, V: Visitor>(
     scene: &Scene,
     walk: &Walk,
+    time: f32,
     sampler: &mut S,
     visitor: &mut V,
     counters: &mut Counters,
 ) {
-    if let Some(e) = emit(scene, sampler) {
+    if let Some(e) = emit(scene, sampler, time) {
         random_walk(
             scene, walk, &e.origin, e.ray, e.beta, e.pdf, sampler, visitor, counters,
         );
@@ -264,6 +268,7 @@ fn trace<S: Sampler, V: Visitor>(
             infinite: false,
             depth: prev.depth + 1,
             class: arrival.class.push(bsdf.lobe_class()),
+            time: ray.time,
         };
         if V::DENSITIES {
             v.pdf_fwd = prev.convert_density(arrival.pdf_w, &v);
@@ -339,7 +344,10 @@ fn scatter<S: Sampler, V: Visitor>(
             v.class
         },
     };
-    Some((spawn_ray(v.p, v.p_error, v.ng, s.wi), arrival))
+    Some((
+        spawn_ray(v.p, v.p_error, v.ng, s.wi).at_time(v.time),
+        arrival,
+    ))
 }
 
 #[cfg(test)]
@@ -401,10 +409,18 @@ mod tests {
                 sampler.start_pixel_sample(7, i, 0);
                 let mut depths = Depths::default();
                 if light {
-                    from_light(scene, &walk, &mut sampler, &mut depths, &mut counters);
+                    from_light(scene, &walk, 0.0, &mut sampler, &mut depths, &mut counters);
                 } else {
                     let film = Vec2::splat(16.0);
-                    from_camera(scene, &walk, film, &mut sampler, &mut depths, &mut counters);
+                    from_camera(
+                        scene,
+                        &walk,
+                        film,
+                        0.0,
+                        &mut sampler,
+                        &mut depths,
+                        &mut counters,
+                    );
                 }
                 depths.0
             })

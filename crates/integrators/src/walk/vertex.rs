@@ -60,11 +60,13 @@ pub(crate) struct PathVertex {
     pub depth: u32,
     /// Their classes, origin first.
     pub class: PathClass,
+    /// The instant of the path (within the shutter): every ray from this vertex is traced then.
+    pub time: f32,
 }
 
 impl PathVertex {
-    /// A vertex of `kind` at `p` with throughput `beta` and nothing else known.
-    pub fn new(kind: Kind, p: Vec3, beta: Rgb) -> PathVertex {
+    /// A vertex of `kind` at `p` at instant `time` with throughput `beta` and nothing else known.
+    pub fn new(kind: Kind, p: Vec3, time: f32, beta: Rgb) -> PathVertex {
         PathVertex {
             kind,
             p,
@@ -82,6 +84,7 @@ impl PathVertex {
             infinite: false,
             depth: 0,
             class: PathClass::EMPTY,
+            time,
         }
     }
 
@@ -269,6 +272,10 @@ pub(crate) fn direction(from: &PathVertex, to: &PathVertex) -> Vec3 {
 /// Whether nothing blocks the segment between `a` and `b` (offset off the surfaces they lie on).
 #[inline]
 pub(crate) fn unoccluded(scene: &Scene, a: &PathVertex, b: &PathVertex) -> bool {
+    debug_assert_eq!(
+        a.time, b.time,
+        "a connection joins two paths of one instant"
+    );
     let ray = if b.infinite {
         let mut r = spawn_ray(a.p, a.p_error, a.ng, -b.ng);
         r.t_max = f32::INFINITY;
@@ -282,7 +289,7 @@ pub(crate) fn unoccluded(scene: &Scene, a: &PathVertex, b: &PathVertex) -> bool 
     } else {
         Ray::segment(a.p, b.p - a.p, 1.0 - 1e-4)
     };
-    !scene.occluded(&ray)
+    !scene.occluded(&ray.at_time(a.time))
 }
 
 /// G(a, b) = |cos θ_a| |cos θ_b| / d² with shading normals where there are any.

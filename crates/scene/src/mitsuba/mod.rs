@@ -119,6 +119,7 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
                     material,
                     emission,
                     transform,
+                    motion: None,
                 });
             }
             "emitter" => lights.push(emitters::light(el)?),
