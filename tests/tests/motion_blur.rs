@@ -4,7 +4,9 @@
 //! ray) and the pixel part an 8 × 8 midpoint rule over a function that is continuous after the
 //! time integral. Every integrator that supports motion is z-tested against it pixel by pixel;
 //! the same render with the shutter closed must fail that test (the test has power). Stratified
-//! time: Sobol's time dimension makes the blur converge faster than independent samples.
+//! time: Sobol's time dimension makes the blur converge faster than independent samples. Radiosity
+//! solves once per pass at the pass's instant and is z-tested with the others; cone tracing
+//! averages instants and must approach the closed form up to its footprint approximation.
 //! Agreement on the bundled scenes/motion-blur.ron (rolling, spinning and falling shapes, their
 //! shadows and a blurred caustic) between path tracing, light tracing, BDPT and SPPM, whose
 //! photons and visible points share one instant per pass.
@@ -112,12 +114,14 @@ fn worst_z(out: &RenderOutput, want: &[f64]) -> (f64, usize) {
 }
 
 /// Each entry: integrator and samples (passes) per pixel.
-const METHODS: [(&str, u32); 5] = [
+const METHODS: [(&str, u32); 6] = [
     ("Path(max_bounces: 0)", 512),
     ("Light(max_bounces: 0)", 512),
     ("Bdpt(max_bounces: 0)", 256),
     ("Sppm(max_bounces: 0, photons_per_pass: 1000)", 512),
     ("Vcm(max_bounces: 0)", 256),
+    // A solution per pass, at the pass's instant (an accumulation buffer).
+    ("Radiosity(max_bounces: 0, patches: 16, rays: 4)", 256),
 ];
 
 #[test]
@@ -227,22 +231,47 @@ fn moving_scene_same_bits_on_one_and_two_threads() {
     }
 }
 
-/// Integrators that cannot integrate over time say so instead of rendering an instant.
+/// Cone tracing averages instants: its footprint approximation stays (a disk for the pixel's
+/// square), but the time integral converges, so the blurred image is far nearer the closed form
+/// than one instant is (measured: rms 1.3e-3 against 0.38), and its mean agrees.
 #[test]
-fn methods_without_motion_refuse_moving_scenes() {
+fn cone_tracing_averages_instants_of_the_crossing_ball() {
+    let want = expected();
+    let rms = |out: &RenderOutput| {
+        let sq: f64 = (0..want.len())
+            .map(|i| (out.film.mean(i)[0] - want[i]).powi(2))
+            .sum();
+        (sq / want.len() as f64).sqrt()
+    };
+    let blurred = render(&scene(&crossing((0.0, 1.0))), "Cone(max_bounces: 0)", 64, 1);
+    let sharp = render(&scene(&crossing((0.5, 0.5))), "Cone(max_bounces: 0)", 64, 1);
+    assert_eq!((blurred.stats.spp, sharp.stats.spp), (64, 1));
+    let (b, s) = (rms(&blurred), rms(&sharp));
+    assert!(
+        b < 0.01 * s,
+        "rms error: 64 instants {b:.3e}, one instant {s:.3e}"
+    );
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let got: Vec<f64> = (0..want.len()).map(|i| blurred.film.mean(i)[0]).collect();
+    assert!(
+        (mean(&got) - mean(&want)).abs() < 0.005 * mean(&want),
+        "image mean {} vs exact {}",
+        mean(&got),
+        mean(&want)
+    );
+}
+
+/// Jensen's photon map, built once, cannot integrate over time and says so; with the shutter
+/// closed it renders the instant.
+#[test]
+fn photon_map_refuses_an_open_shutter_over_moving_shapes() {
     use lightlab_integrators::IntegratorConfig;
-    let sc = bundled((24, 16));
-    for (config, says) in [
-        ("PhotonMap()", "one instant"),
-        ("Radiosity()", "move"),
-        ("Cone()", "move"),
-    ] {
-        let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
-        let err = integrator.check_scene(&sc).unwrap_err();
-        assert!(err.contains(says), "{config}: {err}");
-    }
-    // With the shutter closed PhotonMap renders the instant; radiosity and cone tracing still
-    // refuse (they read the shapes at rest).
+    let pm = IntegratorConfig::from_ron("PhotonMap()")
+        .unwrap()
+        .build()
+        .unwrap();
+    let err = pm.check_scene(&bundled((24, 16))).unwrap_err();
+    assert!(err.contains("one instant") && err.contains("Sppm"), "{err}");
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/motion-blur.ron");
     let text = std::fs::read_to_string(path).unwrap();
     let instant = scene(&text.replace("shutter: (0, 1)", "shutter: (0.5, 0.5)"));

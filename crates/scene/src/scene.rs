@@ -107,6 +107,35 @@ impl Scene {
         self.has_motion() && self.camera.shutter_open()
     }
 
+    /// The scene frozen at instant `t`: every moving shape where it is then, nothing moving, the
+    /// shutter closed at `t`. Methods that solve for a scene at rest (radiosity, cone tracing)
+    /// integrate over the shutter by averaging such instants — the accumulation buffer (Haeberli
+    /// & Akeley 1990).
+    pub fn at_instant(&self, t: f32) -> Scene {
+        let shapes = (0..self.shapes().len())
+            .map(|i| {
+                let s = &self.shapes()[i];
+                match self.accel.motion(i as u32) {
+                    Some(m) => s.moved(&m.at(t)),
+                    None => s.clone(),
+                }
+            })
+            .collect();
+        let mut camera = self.camera.clone();
+        camera.shutter = (t, t);
+        let mut scene = Scene::new(
+            camera,
+            Accel::new(shapes),
+            self.materials.clone(),
+            self.material_names.clone(),
+            self.textures.clone(),
+            self.lights.clone(),
+        );
+        scene.origin = self.origin;
+        scene.inputs = self.inputs.clone();
+        scene
+    }
+
     /// Chooses a light with probability proportional to its power: (index, probability).
     #[inline]
     pub fn sample_light(&self, u: f32) -> Option<(u32, f32)> {

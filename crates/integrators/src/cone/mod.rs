@@ -25,6 +25,7 @@ use crate::config::{ConfigError, Settings, Validate, invalid};
 use crate::film::Film;
 use crate::paths::{Layers, PathClass, Router};
 use crate::render::{Counters, PixelLimit, PixelVariance, named};
+use crate::shutter::pass_time;
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::{Vec2, Vec3};
 use lightlab_core::{Progress, Rgb};
@@ -316,12 +317,6 @@ fn triangle_solid_angle(a: Vec3, b: Vec3, c: Vec3) -> f32 {
 
 /// Why `scene` is beyond cone tracing, if it is.
 fn check(scene: &Scene) -> Result<(), String> {
-    if scene.has_motion() {
-        return Err(
-            "cone tracing intersects cones with the shapes at rest, and the scene's shapes move"
-                .into(),
-        );
-    }
     if !matches!(scene.camera.lens, Lens::Pinhole) {
         return Err(
             "cone tracing starts its cones at a pinhole: the scene's camera has a thin lens".into(),
@@ -357,11 +352,14 @@ impl Integrator for Cone {
     }
 
     /// One cone per pixel, whatever the budget (the image is deterministic: more samples would
-    /// repeat it); `spp` in the statistics is 1.
+    /// repeat it); `spp` in the statistics is 1. With motion blur (shapes moving while the shutter
+    /// is open) the image averages instants instead (the accumulation buffer, Haeberli & Akeley
+    /// 1990): the budget's samples are instants, each one cone per pixel in the scene frozen then,
+    /// at the passes' stratified times (`shutter`); the spread over instants is its variance.
     fn render_passes(
         &self,
         scene: &Scene,
-        _budget: &Budget,
+        budget: &Budget,
         seed: u64,
         progress: &dyn Progress,
         on_pass: &mut dyn FnMut(u32, &Film) -> bool,
@@ -369,8 +367,78 @@ impl Integrator for Cone {
         let start = Instant::now();
         let cam = &scene.camera;
         let (width, height) = (cam.width, cam.height);
-        progress.start(height as u64);
         let slot_count = 1 + self.router.layer_count();
+        let blur = scene.motion_blur();
+        let instants = if blur { budget.samples_or(u32::MAX) } else { 1 };
+        progress.start(height as u64 * if blur { budget.samples_or(1) } else { 1 } as u64);
+        let mut films: Vec<Film> = (0..slot_count).map(|_| Film::new(width, height)).collect();
+        let mut counters = Counters::default();
+        let mut taken = 0;
+        while taken < instants {
+            let rows = if blur {
+                let frozen = scene.at_instant(pass_time(cam, seed, taken as u64));
+                self.instant(&frozen, slot_count, progress)
+            } else {
+                self.instant(scene, slot_count, progress)
+            };
+            for (y, row) in rows.iter().enumerate() {
+                for (x, value) in row.iter().enumerate() {
+                    let i = y * width as usize + x;
+                    for (film, v) in films.iter_mut().zip(value) {
+                        if v.is_finite() {
+                            film.pixels[i].add(v.to_array().map(f64::from));
+                        } else {
+                            counters.count_non_finite(crate::render::Technique::Camera);
+                            film.pixels[i].add([0.0; 3]);
+                        }
+                    }
+                }
+            }
+            counters.rays += width as u64 * height as u64;
+            taken += 1;
+            let stop = !on_pass(taken, &films[0]);
+            if stop || matches!(budget, Budget::Seconds(s) if start.elapsed().as_secs_f64() >= *s) {
+                break;
+            }
+        }
+        let film = films.remove(0);
+        let mut stats = RenderStats::new(
+            "Cone",
+            &film,
+            taken,
+            seed,
+            start.elapsed().as_secs_f64(),
+            width as u64 * height as u64 * taken as u64,
+            &counters,
+            &[crate::render::Technique::Camera],
+            if blur {
+                PixelVariance::Independent
+            } else {
+                PixelVariance::NotAnEstimate(
+                    "deterministic: one cone per pixel, no samples to take a variance over".into(),
+                )
+            },
+        );
+        stats.pixel_limit = PixelLimit::ConeFootprint;
+        RenderOutput {
+            film,
+            outliers: Vec::new(),
+            layers: named(self.router.layer_names(), films),
+            stats,
+        }
+    }
+}
+
+impl Cone {
+    /// The cone-traced image of `scene` (at rest), per pixel a value per output slot.
+    fn instant(
+        &self,
+        scene: &Scene,
+        slot_count: usize,
+        progress: &dyn Progress,
+    ) -> Vec<Vec<Vec<Rgb>>> {
+        let cam = &scene.camera;
+        let (width, height) = (cam.width, cam.height);
         let mut slots = [Vec::new(), Vec::new()];
         let mut class = PathClass::EMPTY;
         for (k, slot) in slots.iter_mut().enumerate() {
@@ -399,7 +467,7 @@ impl Integrator for Cone {
             slots,
             shadows: self.config.shadows,
         };
-        let rows: Vec<Vec<Vec<Rgb>>> = (0..height)
+        (0..height)
             .into_par_iter()
             .map(|y| {
                 let row = (0..width)
@@ -439,44 +507,6 @@ impl Integrator for Cone {
                 progress.advance(1);
                 row
             })
-            .collect();
-        let mut films: Vec<Film> = (0..slot_count).map(|_| Film::new(width, height)).collect();
-        let mut counters = Counters::default();
-        for (y, row) in rows.iter().enumerate() {
-            for (x, value) in row.iter().enumerate() {
-                let i = y * width as usize + x;
-                for (film, v) in films.iter_mut().zip(value) {
-                    if v.is_finite() {
-                        film.pixels[i].add(v.to_array().map(f64::from));
-                    } else {
-                        counters.count_non_finite(crate::render::Technique::Camera);
-                        film.pixels[i].add([0.0; 3]);
-                    }
-                }
-            }
-        }
-        counters.rays = width as u64 * height as u64;
-        on_pass(1, &films[0]);
-        let film = films.remove(0);
-        let mut stats = RenderStats::new(
-            "Cone",
-            &film,
-            1,
-            seed,
-            start.elapsed().as_secs_f64(),
-            width as u64 * height as u64,
-            &counters,
-            &[crate::render::Technique::Camera],
-            PixelVariance::NotAnEstimate(
-                "deterministic: one cone per pixel, no samples to take a variance over".into(),
-            ),
-        );
-        stats.pixel_limit = PixelLimit::ConeFootprint;
-        RenderOutput {
-            film,
-            outliers: Vec::new(),
-            layers: named(self.router.layer_names(), films),
-            stats,
-        }
+            .collect()
     }
 }

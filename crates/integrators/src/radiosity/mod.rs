@@ -29,9 +29,13 @@ mod tests;
 pub use solve::Solver;
 
 use crate::config::{ConfigError, Settings, Validate, invalid};
-use crate::passes::{PassSpec, RenderArgs, SampledRender, Schedule, render_sampled, run_passes};
+use crate::passes::{
+    PassSpec, RenderArgs, SampledRender, Schedule, render_sampled, run_passes,
+    run_progressive_passes,
+};
 use crate::paths::{Layers, PathClass, Router};
-use crate::render::{PixelLimit, PixelVariance, named};
+use crate::render::{Counters, PixelLimit, PixelVariance, named};
+use crate::shutter::pass_time;
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use form_factors::FormFactors;
 use glam::Vec2;
@@ -42,6 +46,7 @@ use lightlab_scene::{Light, Scene};
 use patches::Patches;
 use serde::{Deserialize, Serialize};
 use solve::{Solved, Stop, System};
+use std::sync::RwLock;
 use std::time::Instant;
 
 /// Settings of the radiosity method: `Radiosity(patches: 4096, solver: GaussSeidel)`; every
@@ -327,12 +332,6 @@ impl Radiosity {
 /// Why `scene` cannot be solved by radiosity, if it cannot: every surface Lambertian with a
 /// constant albedo, every light an area light.
 fn check(scene: &Scene) -> Result<(), String> {
-    if scene.has_motion() {
-        return Err(
-            "radiosity solves for the patches of a scene at rest, and the scene's shapes move"
-                .into(),
-        );
-    }
     if let Some(light) = scene
         .lights
         .iter()
@@ -391,6 +390,97 @@ impl Integrator for Radiosity {
     }
 }
 
+/// One instant's solution: the frozen scene, its patches and their radiance per output slot.
+type Solution = (Scene, Patches, Vec<Vec<Rgb>>);
+
+impl Radiosity {
+    /// Motion blur as an accumulation buffer (Haeberli & Akeley 1990): pass i solves the scene
+    /// frozen at its instant (the passes' stratified times, `shutter`) with form factors of its
+    /// own seed, and its camera samples see that solution. Passes are then independent samples of
+    /// the time and form-factor integrals, and the spread over them is the pixel's variance
+    /// (conservative where the instants' stratification helps).
+    fn render_instants<S: Sampler + Clone + Send + Sync + 'static>(
+        &self,
+        prototype: S,
+        scene: &Scene,
+        seed: u64,
+        schedule: &mut Schedule,
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
+    ) -> RenderOutput {
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let current: RwLock<Option<Solution>> = RwLock::new(None);
+        let mut last = None;
+        let mut form_factor_rays = 0;
+        let mut begin = |i: u32, _: &mut Counters| {
+            let frozen = scene.at_instant(pass_time(&scene.camera, seed, i as u64));
+            let pass_seed = seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            let (patches, radiance, stats, rays) = self.solve(&frozen, pass_seed);
+            form_factor_rays += rays;
+            last = Some(stats);
+            *current.write().expect("no pass panicked") = Some((frozen, patches, radiance));
+        };
+        let spec = PassSpec {
+            width,
+            height,
+            slots: 1 + self.router.layer_count(),
+            splats: false,
+            groups: 0,
+            independent: self.config.sampler.independent(),
+        };
+        let out = run_progressive_passes(
+            &spec,
+            &self.router,
+            schedule,
+            on_pass,
+            &mut begin,
+            |x, y, index, sink, counters, _: &mut ()| {
+                let solution = current.read().expect("no pass panicked");
+                let Some((frozen, patches, radiance)) = solution.as_ref() else {
+                    return;
+                };
+                let mut sampler = prototype.clone();
+                sampler.start_pixel_sample(seed, y as u64 * width as u64 + x as u64, index);
+                let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                let ray = frozen.camera.generate_ray(film, sampler.next_2d());
+                counters.rays += 1;
+                if let Some(hit) = frozen.intersect(&ray) {
+                    let back = ray.d.dot(hit.ng) > 0.0;
+                    let u = (2 * patches.patch_of(&hit, frozen) + back as u32) as usize;
+                    for (slot, values) in radiance.iter().enumerate() {
+                        sink.add_slot(slot, values[u]);
+                    }
+                }
+            },
+        );
+        let mut films = out.films;
+        let film = films.remove(0);
+        let mut counters = out.counters;
+        counters.rays += form_factor_rays;
+        let mut stats = RenderStats::new(
+            "Radiosity",
+            &film,
+            out.spp,
+            seed,
+            schedule.elapsed(),
+            width as u64 * height as u64 * out.spp as u64,
+            &counters,
+            &[],
+            PixelVariance::Independent,
+        );
+        stats.pixel_limit = PixelLimit::PatchRadiosity;
+        stats.radiosity = last.map(|s| RadiosityStats {
+            form_factor_rays,
+            ..s
+        });
+        RenderOutput {
+            film,
+            outliers: Vec::new(),
+            layers: named(self.router.layer_names(), films),
+            stats,
+        }
+    }
+}
+
 impl SampledRender for Radiosity {
     fn sampler_config(&self) -> SamplerConfig {
         self.config.sampler
@@ -410,6 +500,9 @@ impl SampledRender for Radiosity {
         } = args;
         let (width, height) = (scene.camera.width, scene.camera.height);
         let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
+        if scene.motion_blur() {
+            return self.render_instants(prototype, scene, seed, &mut schedule, on_pass);
+        }
         let (patches, radiance, radiosity, form_factor_rays) = self.solve(scene, seed);
         let spec = PassSpec {
             width,
