@@ -121,7 +121,7 @@ impl<'r> Sink<'r> {
     }
 
     /// Adds `c`, the contribution of a photon of group `group` to a path of class `class`: to the
-    /// pixel, and to that group's share of it.
+    /// pixel, and to that group's share of it (when the render keeps groups).
     #[inline]
     pub fn add_photon(&mut self, group: usize, class: &PathClass, c: Rgb) {
         let Some(layer) = self.router.route(class) else {
@@ -129,6 +129,9 @@ impl<'r> Sink<'r> {
         };
         self.add_routed(layer, c);
         let g = self.groups;
+        if g == 0 {
+            return;
+        }
         self.group_values[group] += c;
         if self.router.layer_count() > 0 {
             self.group_values[(1 + layer) * g + group] += c;

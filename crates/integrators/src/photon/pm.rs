@@ -31,20 +31,26 @@
 //!
 //! A time budget builds the maps once (their time counts) and adds camera samples until the time
 //! is spent.
+//!
+//! Motion blur (shapes moving while the shutter is open): maps of one instant cannot serve camera
+//! samples of another, so each pass builds its own maps at its instant and takes one camera
+//! sample per pixel there (`render_instants`).
 
 use super::camera::{self, CameraWalk, VisiblePoint};
 use super::config::{Indirect, PhotonMapConfig};
 use super::map::{PhotonMap, Search};
 use super::trace::{GROUPS, Keep, PhotonTracing, trace_photons};
-use crate::passes::{PassSpec, Schedule, run_passes};
+use crate::passes::{PassSpec, Schedule, run_passes, run_progressive_passes};
 use crate::paths::{PathClass, Router};
 use crate::render::{Counters, PixelVariance, Technique, named};
+use crate::shutter::pass_time;
 use crate::sink::Sink;
 use crate::walk::{Arrival, Directions, Lobes, PathVertex, Visitor, Walk, continue_walk};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
+use std::sync::RwLock;
 
 /// Seed offset of the caustic map's photon stream (independent of the global map's).
 const CAUSTIC_STREAM: u64 = 0x1405_7b7e_f767_814f;
@@ -210,6 +216,131 @@ fn deposit(l: &mut Sink, group: usize, class: &PathClass, c: Rgb, counters: &mut
     }
 }
 
+impl PhotonMapper {
+    /// The global and caustic maps (those asked for) of photons traced at instant `time` from the
+    /// streams of `seed`.
+    fn maps(&self, scene: &Scene, seed: u64, time: f32, counters: &mut Counters) -> Maps {
+        let c = &self.config;
+        let tracing = |keep| PhotonTracing {
+            max_bounces: c.max_bounces.unwrap_or(u32::MAX),
+            russian_roulette: c.russian_roulette,
+            keep,
+        };
+        let global = (c.indirect != Indirect::Off).then(|| {
+            PhotonMap::new(trace_photons(
+                scene,
+                seed,
+                (0, c.photons),
+                time,
+                tracing(Keep::All),
+                counters,
+            ))
+        });
+        let caustic = c.caustics.then(|| {
+            PhotonMap::new(trace_photons(
+                scene,
+                seed ^ CAUSTIC_STREAM,
+                (0, c.caustic_photons),
+                time,
+                tracing(Keep::Caustic),
+                counters,
+            ))
+        });
+        Maps {
+            global,
+            caustic,
+            search: c.gather.search(scene.radius),
+            caustic_search: c.caustic_gather.search(scene.radius),
+        }
+    }
+
+    /// Motion blur: camera samples of different instants cannot share maps, so every pass builds
+    /// its own at its instant (the passes' stratified times, `shutter`) from photon streams of its
+    /// own, and its camera samples (one per pixel) see that instant — photon mapping repeated per
+    /// instant, an accumulation buffer (Haeberli & Akeley 1990). Passes are then independent
+    /// samples of everything the pixel estimate depends on, and the spread over them is its
+    /// variance (conservative where the instants' stratification helps); the price is a pair of
+    /// maps per pass.
+    fn render_instants(
+        &self,
+        scene: &Scene,
+        seed: u64,
+        schedule: &mut Schedule,
+        on_pass: &mut dyn FnMut(u32, &Film) -> bool,
+    ) -> RenderOutput {
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let current: RwLock<Option<(f32, Maps)>> = RwLock::new(None);
+        let (mut photons, mut stored) = (0u64, 0u64);
+        let mut begin = |i: u32, counters: &mut Counters| {
+            let time = pass_time(&scene.camera, seed, i as u64);
+            let pass_seed = seed ^ (i as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            let maps = self.maps(scene, pass_seed, time, counters);
+            photons += self.config.photons * maps.global.is_some() as u64
+                + self.config.caustic_photons * maps.caustic.is_some() as u64;
+            stored += maps.global.as_ref().map_or(0, |m| m.len() as u64)
+                + maps.caustic.as_ref().map_or(0, |m| m.len() as u64);
+            *current.write().expect("no pass panicked") = Some((time, maps));
+        };
+        let walk = self.walk();
+        let spec = PassSpec {
+            width,
+            height,
+            slots: 1 + self.router.layer_count(),
+            splats: false,
+            groups: 0,
+            independent: true,
+        };
+        let out = run_progressive_passes(
+            &spec,
+            &self.router,
+            schedule,
+            on_pass,
+            &mut begin,
+            |x, y, index, sink, counters, _: &mut ()| {
+                let pass = current.read().expect("no pass panicked");
+                let Some((time, maps)) = pass.as_ref() else {
+                    return;
+                };
+                let (vp, mut sampler) = camera::trace_pixel(
+                    scene,
+                    &walk,
+                    (seed, *time),
+                    (x, y, width),
+                    index,
+                    index,
+                    sink,
+                    counters,
+                );
+                if let Some(vp) = &vp {
+                    self.at_visible_point(scene, maps, vp, &mut sampler, sink, counters);
+                }
+            },
+        );
+        let mut films = out.films;
+        let film = films.remove(0);
+        let mut stats = RenderStats::new(
+            "PhotonMap",
+            &film,
+            out.spp,
+            seed,
+            schedule.elapsed(),
+            width as u64 * height as u64 * out.spp as u64,
+            &out.counters,
+            &[Technique::Camera, Technique::Photon],
+            PixelVariance::Independent,
+        );
+        stats.pixel_limit = crate::render::PixelLimit::FixedRadiusBlur;
+        stats.photons = photons;
+        stats.photons_stored = stored;
+        RenderOutput {
+            film,
+            outliers: Vec::new(),
+            layers: named(self.router.layer_names(), films),
+            stats,
+        }
+    }
+}
+
 /// The two maps and how each is searched.
 struct Maps {
     global: Option<PhotonMap>,
@@ -221,14 +352,6 @@ struct Maps {
 impl Integrator for PhotonMapper {
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {
         let c = &self.config;
-        if scene.motion_blur() {
-            return Err(
-                "PhotonMap builds its photon maps once, for one instant, but the scene's \
-                 shapes move while the shutter is open: use Sppm or Ppm (one instant per pass), \
-                 or close the shutter"
-                    .into(),
-            );
-        }
         super::config::check_radius("gather radius", c.gather.radius(), scene)?;
         super::config::check_radius("caustic_gather radius", c.caustic_gather.radius(), scene)
     }
@@ -244,41 +367,11 @@ impl Integrator for PhotonMapper {
         let c = &self.config;
         let (width, height) = (scene.camera.width, scene.camera.height);
         let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
-        let max = c.max_bounces.unwrap_or(u32::MAX);
+        if scene.motion_blur() {
+            return self.render_instants(scene, seed, &mut schedule, on_pass);
+        }
         let mut counters = Counters::default();
-        // The maps are built once, for one instant (`check` refuses motion blur).
-        let time = scene.camera.shutter.0;
-        let tracing = |keep| PhotonTracing {
-            max_bounces: max,
-            russian_roulette: c.russian_roulette,
-            keep,
-        };
-        let global = (c.indirect != Indirect::Off).then(|| {
-            PhotonMap::new(trace_photons(
-                scene,
-                seed,
-                (0, c.photons),
-                time,
-                tracing(Keep::All),
-                &mut counters,
-            ))
-        });
-        let caustic = c.caustics.then(|| {
-            PhotonMap::new(trace_photons(
-                scene,
-                seed ^ CAUSTIC_STREAM,
-                (0, c.caustic_photons),
-                time,
-                tracing(Keep::Caustic),
-                &mut counters,
-            ))
-        });
-        let maps = Maps {
-            global,
-            caustic,
-            search: c.gather.search(scene.radius),
-            caustic_search: c.caustic_gather.search(scene.radius),
-        };
+        let maps = self.maps(scene, seed, scene.camera.shutter.0, &mut counters);
         let walk = self.walk();
         let router = &self.router;
         let spec = PassSpec {
@@ -298,7 +391,7 @@ impl Integrator for PhotonMapper {
                 let (vp, mut sampler) = camera::trace_pixel(
                     scene,
                     &walk,
-                    (seed, time),
+                    (seed, scene.camera.shutter.0),
                     (x, y, width),
                     index,
                     index,
