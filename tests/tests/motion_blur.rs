@@ -337,3 +337,29 @@ fn photon_map_over_the_shutter_is_the_average_of_its_instants() {
         }
     }
 }
+
+/// PPM keeps one camera path per pixel (its visible points never move), so it cannot reach the
+/// pixel integral; with an instant per pass it still integrates over time, and over the image its
+/// fixed film positions average out: the image mean matches the closed form.
+#[test]
+fn ppm_integrates_the_crossing_ball_over_time() {
+    let want = expected();
+    let out = render(
+        &scene(&crossing((0.0, 1.0))),
+        "Ppm(max_bounces: 0, photons_per_pass: 1000)",
+        256,
+        3,
+    );
+    let mean = |v: &mut dyn Iterator<Item = f64>| v.sum::<f64>() / want.len() as f64;
+    let got = mean(&mut (0..want.len()).map(|i| out.film.mean(i)[0]));
+    let exact = mean(&mut want.iter().copied());
+    assert!(
+        (got - exact).abs() < 0.01 * exact,
+        "image mean {got} vs exact {exact}"
+    );
+    // A single instant would leave pixels at 0 or Lₑ only; blurred ones lie between.
+    let between = (0..want.len())
+        .filter(|&i| (0.1..LE - 0.1).contains(&out.film.mean(i)[0]))
+        .count();
+    assert!(between > 40, "{between} blurred pixels");
+}
