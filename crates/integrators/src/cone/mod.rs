@@ -378,6 +378,9 @@ impl Integrator for Cone {
             let rows = if blur {
                 let frozen = scene.at_instant(pass_time(cam, seed, taken as u64));
                 self.instant(&frozen, slot_count, progress)
+            } else if scene.has_motion() {
+                // A closed shutter over moving shapes: the one instant, where they are then.
+                self.instant(&scene.at_instant(cam.shutter.0), slot_count, progress)
             } else {
                 self.instant(scene, slot_count, progress)
             };

@@ -503,6 +503,11 @@ impl SampledRender for Radiosity {
         if scene.motion_blur() {
             return self.render_instants(prototype, scene, seed, &mut schedule, on_pass);
         }
+        // A closed shutter over moving shapes: the one instant, where they are then.
+        let frozen = scene
+            .has_motion()
+            .then(|| scene.at_instant(scene.camera.shutter.0));
+        let scene = frozen.as_ref().unwrap_or(scene);
         let (patches, radiance, radiosity, form_factor_rays) = self.solve(scene, seed);
         let spec = PassSpec {
             width,
