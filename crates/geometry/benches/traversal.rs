@@ -1,12 +1,13 @@
 //! Traversal benchmark (BENCHMARKS.md, "Traversal"): the Cornell box with a 1.05 M-triangle UV
 //! sphere; incoherent closest-hit rays, shadow segments and primary camera rays, on rayon pools of
 //! 1 and 2 threads, reporting Mrays/s per wall second and per CPU second, plus BVH build time and
-//! memory.
+//! memory; first, small and mid-sized scenes on both static structures (the 4-wide BVH and the
+//! CWBVH), which is what the accelerator's choice by size rests on.
 //!
 //! Run: `cargo bench -p lightlab-geometry --bench traversal`.
 
 use lightlab_core::{Ray, Vec2, Vec3};
-use lightlab_geometry::{Accel, Geometry, NO_LIGHT, Shape, TriangleMesh};
+use lightlab_geometry::{Accel, Geometry, Layout, NO_LIGHT, Shape, TriangleMesh};
 use lightlab_samplers::warp::square_to_uniform_sphere;
 use lightlab_testkit::timing::timed;
 use rand::{RngExt, SeedableRng};
@@ -216,7 +217,64 @@ fn trace(accel: &Accel, rays: &[Ray], closest: bool) -> usize {
         .sum()
 }
 
+/// Small and mid-sized scenes on both static structures, one thread: what `Layout::BySize`'s
+/// threshold is chosen by.
+fn compare_layouts() {
+    const RAYS: usize = 1 << 20;
+    let mut rng = Pcg64::seed_from_u64(7);
+    let incoherent = incoherent_rays(&mut rng, RAYS);
+    let shadow = shadow_rays(&mut rng, RAYS);
+    println!("## Structures by scene size (1 thread, {RAYS} rays each)");
+    println!(
+        "| scene | triangles | structure | nodes | incoherent Mrays/s | shadow Mrays/s | build s |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let sizes = [
+        None,
+        Some((8, 16)),
+        Some((16, 32)),
+        Some((32, 64)),
+        Some((64, 128)),
+        Some((128, 256)),
+    ];
+    for size in sizes {
+        let mut shapes = cornell_box();
+        let name = match size {
+            None => "Cornell box".to_string(),
+            Some((rings, segments)) => {
+                shapes.push(uv_sphere(Vec3::ZERO, 0.35, rings, segments));
+                format!("Cornell box + {rings}×{segments} sphere")
+            }
+        };
+        for layout in [Layout::Compressed, Layout::Wide] {
+            let input = shapes.clone();
+            let (accel, build, _) =
+                timed(|| pool.install(|| Accel::with_layout(input, Vec::new(), layout)));
+            let rate = |rays: &[Ray], closest| {
+                pool.install(|| trace(&accel, &rays[..WARM_UP], closest));
+                let (_, wall, _) = timed(|| pool.install(|| trace(&accel, rays, closest)));
+                rays.len() as f64 / wall / 1e6
+            };
+            let (a, b) = (rate(&incoherent, true), rate(&shadow, false));
+            println!(
+                "| {name} | {} | {layout:?} | {} | {a:.2} | {b:.2} | {build:.3} |",
+                accel.triangle_count(),
+                accel.stats().nodes,
+            );
+        }
+    }
+    println!();
+}
+
 fn main() {
+    compare_layouts();
+    if std::env::args().any(|a| a == "--layouts-only") {
+        return;
+    }
     let mut shapes = cornell_box();
     shapes.push(uv_sphere(Vec3::ZERO, 0.35, 512, 1024));
 

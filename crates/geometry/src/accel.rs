@@ -1,7 +1,9 @@
-//! The ray acceleration structure: one obvhs CWBVH (Ylitie et al. 2017, 8-wide compressed nodes)
-//! over every triangle and sphere of the scene, with our own node test and primitive tests.
+//! The ray acceleration structure over every triangle and sphere of the scene: for small scenes
+//! (up to [`WIDE_MAX_PRIMITIVES`]) the 4-wide BVH of [`crate::bvh4`], otherwise one obvhs CWBVH
+//! (Ylitie et al. 2017, 8-wide compressed nodes) with our own node test and primitive tests. Both
+//! use the same watertight triangle test and give the same hits.
 //!
-//! Two deliberate departures from obvhs's own traversal (crates.md §2 lists its pitfalls):
+//! Two deliberate departures of the CWBVH path from obvhs's own traversal (crates.md §2 lists its pitfalls):
 //! - **Canonical space.** The BVH is built over the primitives' boxes mapped by `(x − c)·s` into
 //!   roughly [−1, 1]³, with `s` a power of two and `c` on a power-of-two grid, so a ray maps into it
 //!   exactly (in the usual cases) and t is unchanged. A scene scaled by 10⁻³ or 10³ or moved to
@@ -16,10 +18,10 @@
 //! triangles are contiguous in memory and the traversal needs no indirection; their shape and
 //! triangle ids live in a separate, colder array that is read only for the final hit.
 
+use crate::bvh4::{Bvh4, Primitive};
 use crate::hit::Hit;
 use crate::motion::Motion;
 use crate::shape::{Geometry, Shape};
-use crate::sphere::Sphere;
 use crate::triangle::{self, WatertightRay};
 use glam::{UVec2, Vec3A, Vec4};
 use lightlab_core::{Ray, Vec3, gamma};
@@ -39,11 +41,30 @@ const BOX_PAD: f32 = 1.0 / (1 << 19) as f32;
 /// Factor on slab exit distances covering the relative rounding error of the slab test.
 const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(5);
 
-/// A primitive as the traversal sees it, in leaf order.
-#[derive(Clone, Copy, Debug)]
-enum Prim {
-    Triangle([Vec3; 3]),
-    Sphere(Sphere),
+/// Scenes with at most this many static primitives get the 4-wide BVH ([`Bvh4`]), larger ones the
+/// CWBVH. Measured (BENCHMARKS.md, "Structures by scene size", one thread): from 34 to 65 058
+/// triangles the 4-wide BVH traces 0.95–1.1× the CWBVH's closest-hit rays and 1.3–1.4× its shadow
+/// rays; its build is serial and 3× slower (0.15 s at 65 k), and larger scenes were not measured.
+pub const WIDE_MAX_PRIMITIVES: usize = 1 << 16;
+
+/// The structure over the static primitives.
+enum Structure {
+    /// obvhs's CWBVH with the primitives copied into its leaf order.
+    Compressed { bvh: CwBvh, prims: Vec<Primitive> },
+    /// The 4-wide BVH of small scenes; primitive ids index `refs` in build order.
+    Wide(Bvh4),
+}
+
+/// Which structure holds the static primitives. Both give the same hits (the same primitive
+/// tests, conservative box tests); they differ in speed, which is why the choice is by size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// The 4-wide BVH up to [`WIDE_MAX_PRIMITIVES`] primitives, the CWBVH above.
+    BySize,
+    /// obvhs's 8-wide compressed BVH (Ylitie et al. 2017).
+    Compressed,
+    /// The 4-wide BVH with four-triangle leaves ([`crate::bvh4`]).
+    Wide,
 }
 
 /// Which shape and which triangle of it a leaf-order primitive is.
@@ -123,8 +144,10 @@ pub struct AccelStats {
 /// many threads.
 pub struct Accel {
     shapes: Vec<Shape>,
-    bvh: CwBvh,
-    prims: Vec<Prim>,
+    structure: Structure,
+    /// Static primitives (degenerate triangles left out).
+    primitives: usize,
+    /// Each static primitive's shape and index in it, in the structure's primitive order.
     refs: Vec<PrimRef>,
     canonical: Canonical,
     bounds: (Vec3, Vec3),
@@ -154,13 +177,19 @@ impl Accel {
     /// As [`Accel::new`], with `motion[i]` (where given and `Some`) moving shape `i` rigidly over
     /// time: shape `i` is then its rest geometry, [`Ray::time`] says where it is.
     pub fn with_motion(shapes: Vec<Shape>, motion: Vec<Option<Motion>>) -> Accel {
+        Accel::with_layout(shapes, motion, Layout::BySize)
+    }
+
+    /// As [`Accel::with_motion`] with the structure chosen by `layout` (benchmarks and tests
+    /// compare them; a wide BVH deeper than its traversal stack falls back to the CWBVH).
+    pub fn with_layout(shapes: Vec<Shape>, motion: Vec<Option<Motion>>, layout: Layout) -> Accel {
         let mut refs = Vec::new();
         let mut boxes: Vec<(Vec3, Vec3)> = Vec::new();
         let mut moving = Vec::new();
         for (s, shape) in shapes.iter().enumerate() {
             let shape_id = s as u32;
             if let Some(Some(m)) = motion.get(s) {
-                let accel = Accel::new(vec![shape.clone()]);
+                let accel = Accel::with_layout(vec![shape.clone()], Vec::new(), layout);
                 let (lo, hi) = accel.bounds();
                 let swept = m.swept_bounds((lo + hi) * 0.5, (hi - lo).length() * 0.5);
                 moving.push(Moving {
@@ -222,8 +251,27 @@ impl Accel {
             (lo, hi)
         };
 
-        let (bvh, prims, refs) = if refs.is_empty() {
-            (CwBvh::default(), Vec::new(), Vec::new())
+        let primitive = |r: &PrimRef| match &shapes[r.shape as usize].geometry {
+            Geometry::Mesh(mesh) => Primitive::Triangle(mesh.vertices(r.index as usize)),
+            Geometry::Sphere(sphere) => Primitive::Sphere(*sphere),
+        };
+        let wide = match layout {
+            Layout::BySize if refs.len() > WIDE_MAX_PRIMITIVES => None,
+            Layout::Compressed => None,
+            _ => {
+                let prims: Vec<Primitive> = refs.iter().map(primitive).collect();
+                let ids: Vec<u32> = (0..refs.len() as u32).collect();
+                Bvh4::build(&prims, &ids).map(|b| (b, prims))
+            }
+        };
+        let (structure, prims, refs) = if let Some((bvh4, prims)) = wide {
+            (Structure::Wide(bvh4), prims, refs)
+        } else if refs.is_empty() {
+            let empty = Structure::Compressed {
+                bvh: CwBvh::default(),
+                prims: Vec::new(),
+            };
+            (empty, Vec::new(), Vec::new())
         } else {
             let aabbs: Vec<Aabb> = boxes
                 .par_iter()
@@ -246,25 +294,23 @@ impl Accel {
                 .collect();
             // The traversal indexes leaf order directly; the indirection is no longer needed.
             bvh.primitive_indices = Vec::new();
-            let prims = leaf_refs
-                .par_iter()
-                .map(|r| match &shapes[r.shape as usize].geometry {
-                    Geometry::Mesh(mesh) => Prim::Triangle(mesh.vertices(r.index as usize)),
-                    Geometry::Sphere(sphere) => Prim::Sphere(*sphere),
-                })
-                .collect();
-            (bvh, prims, leaf_refs)
+            let prims: Vec<Primitive> = leaf_refs.par_iter().map(primitive).collect();
+            let structure = Structure::Compressed {
+                bvh,
+                prims: prims.clone(),
+            };
+            (structure, prims, leaf_refs)
         };
 
         let triangle_count = prims
             .iter()
-            .filter(|p| matches!(p, Prim::Triangle(_)))
+            .filter(|p| matches!(p, Primitive::Triangle(_)))
             .count()
             + moving.iter().map(|m| m.accel.triangle_count).sum::<usize>();
         Accel {
             shapes,
-            bvh,
-            prims,
+            structure,
+            primitives: prims.len(),
             refs,
             canonical,
             bounds,
@@ -299,11 +345,23 @@ impl Accel {
     }
 
     pub fn stats(&self) -> AccelStats {
-        AccelStats {
-            nodes: self.bvh.nodes.len(),
-            node_bytes: self.bvh.nodes.len() * size_of::<CwBvhNode>(),
-            primitives: self.prims.len(),
-            primitive_bytes: self.prims.len() * (size_of::<Prim>() + size_of::<PrimRef>()),
+        let ref_bytes = self.refs.len() * size_of::<PrimRef>();
+        match &self.structure {
+            Structure::Compressed { bvh, prims } => AccelStats {
+                nodes: bvh.nodes.len(),
+                node_bytes: bvh.nodes.len() * size_of::<CwBvhNode>(),
+                primitives: prims.len(),
+                primitive_bytes: prims.len() * size_of::<Primitive>() + ref_bytes,
+            },
+            Structure::Wide(bvh) => {
+                let (node_bytes, primitive_bytes) = bvh.bytes();
+                AccelStats {
+                    nodes: bvh.node_count(),
+                    node_bytes,
+                    primitives: self.primitives,
+                    primitive_bytes: primitive_bytes + ref_bytes,
+                }
+            }
         }
     }
 
@@ -342,80 +400,35 @@ impl Accel {
     }
 
     fn intersect_static(&self, ray: &Ray) -> Option<Hit> {
-        if self.prims.is_empty() || ray.t_max.is_nan() || ray.t_max <= 0.0 {
+        if self.primitives == 0 || ray.t_max.is_nan() || ray.t_max <= 0.0 {
             return None;
         }
         let wray = WatertightRay::new(ray.o, ray.d)?;
-        let tray = TraversalRay::new(&self.canonical, ray);
-        let mut t_max = ray.t_max;
-        let mut closest: Option<(u32, [f32; 3])> = None;
-        let mut state = self.bvh.new_traversal(tray.d);
-        let mut node;
-        traverse!(
-            self.bvh,
-            node,
-            state,
-            intersect_node(node, &tray, t_max, state.oct_inv4),
-            {
-                let id = state.primitive_id;
-                match &self.prims[id as usize] {
-                    Prim::Triangle(v) => {
-                        if let Some(h) = triangle::intersect(&wray, v, t_max)
-                            && h.t < t_max
-                        {
-                            t_max = h.t;
-                            closest = Some((id, h.b));
-                        }
-                    }
-                    Prim::Sphere(s) => {
-                        if let Some(t) = s.intersect(ray.o, ray.d, t_max) {
-                            t_max = t;
-                            closest = Some((id, [0.0; 3]));
-                        }
-                    }
-                }
+        let (id, t, b) = match &self.structure {
+            Structure::Wide(bvh) => bvh.intersect(ray, &wray, ray.t_max)?,
+            Structure::Compressed { bvh, prims } => {
+                compressed_intersect(bvh, prims, &self.canonical, ray, &wray)?
             }
-        );
-        let (id, b) = closest?;
-        self.hit(ray, id, t_max, b)
+        };
+        self.hit(ray, id, t, b)
     }
 
     fn occluded_static(&self, ray: &Ray) -> bool {
-        if self.prims.is_empty() || ray.t_max.is_nan() || ray.t_max <= 0.0 {
+        if self.primitives == 0 || ray.t_max.is_nan() || ray.t_max <= 0.0 {
             return false;
         }
         let Some(wray) = WatertightRay::new(ray.o, ray.d) else {
             return false;
         };
-        let tray = TraversalRay::new(&self.canonical, ray);
-        let t_max = ray.t_max;
-        let mut state = self.bvh.new_traversal(tray.d);
-        let mut node;
-        let mut occluded = false;
-        'search: {
-            traverse!(
-                self.bvh,
-                node,
-                state,
-                intersect_node(node, &tray, t_max, state.oct_inv4),
-                {
-                    let hit = match &self.prims[state.primitive_id as usize] {
-                        Prim::Triangle(v) => {
-                            triangle::intersect(&wray, v, t_max).is_some_and(|h| h.t < t_max)
-                        }
-                        Prim::Sphere(s) => s.intersect(ray.o, ray.d, t_max).is_some(),
-                    };
-                    if hit {
-                        occluded = true;
-                        break 'search;
-                    }
-                }
-            );
+        match &self.structure {
+            Structure::Wide(bvh) => bvh.occluded(ray, &wray, ray.t_max),
+            Structure::Compressed { bvh, prims } => {
+                compressed_occluded(bvh, prims, &self.canonical, ray, &wray)
+            }
         }
-        occluded
     }
 
-    /// The [`Hit`] for leaf-order primitive `id` hit at `t` with barycentrics `b`.
+    /// The [`Hit`] for primitive `id` (an index into `refs`) hit at `t` with barycentrics `b`.
     fn hit(&self, ray: &Ray, id: u32, t: f32, b: [f32; 3]) -> Option<Hit> {
         let r = self.refs[id as usize];
         let shape = &self.shapes[r.shape as usize];
@@ -450,6 +463,83 @@ impl Accel {
             light: shape.light,
         })
     }
+}
+
+/// Closest hit in the CWBVH: (leaf-order id, t, barycentrics; zeros for a sphere).
+fn compressed_intersect(
+    bvh: &CwBvh,
+    prims: &[Primitive],
+    canonical: &Canonical,
+    ray: &Ray,
+    wray: &WatertightRay,
+) -> Option<(u32, f32, [f32; 3])> {
+    let tray = TraversalRay::new(canonical, ray);
+    let mut t_max = ray.t_max;
+    let mut closest: Option<(u32, [f32; 3])> = None;
+    let mut state = bvh.new_traversal(tray.d);
+    let mut node;
+    traverse!(
+        bvh,
+        node,
+        state,
+        intersect_node(node, &tray, t_max, state.oct_inv4),
+        {
+            let id = state.primitive_id;
+            match &prims[id as usize] {
+                Primitive::Triangle(v) => {
+                    if let Some(h) = triangle::intersect(wray, v, t_max)
+                        && h.t < t_max
+                    {
+                        t_max = h.t;
+                        closest = Some((id, h.b));
+                    }
+                }
+                Primitive::Sphere(s) => {
+                    if let Some(t) = s.intersect(ray.o, ray.d, t_max) {
+                        t_max = t;
+                        closest = Some((id, [0.0; 3]));
+                    }
+                }
+            }
+        }
+    );
+    closest.map(|(id, b)| (id, t_max, b))
+}
+
+/// Whether anything in the CWBVH is hit with t in (0, ray.t_max).
+fn compressed_occluded(
+    bvh: &CwBvh,
+    prims: &[Primitive],
+    canonical: &Canonical,
+    ray: &Ray,
+    wray: &WatertightRay,
+) -> bool {
+    let tray = TraversalRay::new(canonical, ray);
+    let t_max = ray.t_max;
+    let mut state = bvh.new_traversal(tray.d);
+    let mut node;
+    let mut occluded = false;
+    'search: {
+        traverse!(
+            bvh,
+            node,
+            state,
+            intersect_node(node, &tray, t_max, state.oct_inv4),
+            {
+                let hit = match &prims[state.primitive_id as usize] {
+                    Primitive::Triangle(v) => {
+                        triangle::intersect(wray, v, t_max).is_some_and(|h| h.t < t_max)
+                    }
+                    Primitive::Sphere(s) => s.intersect(ray.o, ray.d, t_max).is_some(),
+                };
+                if hit {
+                    occluded = true;
+                    break 'search;
+                }
+            }
+        );
+    }
+    occluded
 }
 
 /// Whether `ray` may meet the box `b` with t in [0, t_max] (slab test, exit distances widened by
@@ -534,7 +624,7 @@ fn intersect_node(node: &CwBvhNode, ray: &TraversalRay, t_max: f32, oct_inv4: u3
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{NO_LIGHT, TriangleMesh};
+    use crate::{NO_LIGHT, Sphere, TriangleMesh};
     use lightlab_core::Vec2;
     use lightlab_samplers::warp::square_to_uniform_sphere;
     use rand::{RngExt, SeedableRng};
@@ -621,6 +711,13 @@ mod tests {
         shapes
     }
 
+    /// Both static structures, whatever the scene's size.
+    const LAYOUTS: [Layout; 2] = [Layout::Compressed, Layout::Wide];
+
+    fn build(layout: Layout, shapes: Vec<Shape>) -> Accel {
+        Accel::with_layout(shapes, Vec::new(), layout)
+    }
+
     /// Closest hit over every primitive of every shape, with the same primitive tests.
     fn brute_force(shapes: &[Shape], ray: &Ray) -> Option<(u32, u32, f32)> {
         let wray = WatertightRay::new(ray.o, ray.d)?;
@@ -659,6 +756,12 @@ mod tests {
 
     #[test]
     fn closest_hit_and_occlusion_match_brute_force() {
+        for layout in LAYOUTS {
+            closest_hit_and_occlusion_match_brute_force_in(layout);
+        }
+    }
+
+    fn closest_hit_and_occlusion_match_brute_force_in(layout: Layout) {
         let variants = [
             (1.0, Vec3::ZERO),
             (1e-3, Vec3::ZERO),
@@ -667,7 +770,7 @@ mod tests {
         ];
         for (v, &(scale, offset)) in variants.iter().enumerate() {
             let shapes = scene(7, scale, offset);
-            let accel = Accel::new(shapes.clone());
+            let accel = build(layout, shapes.clone());
             let mut rng = Pcg64::seed_from_u64(100 + v as u64);
             let (mut hits, n) = (0, 10_000);
             for k in 0..n {
@@ -703,11 +806,17 @@ mod tests {
 
     #[test]
     fn far_translated_scene_gives_identical_hits() {
+        for layout in LAYOUTS {
+            far_translated_scene_gives_identical_hits_in(layout);
+        }
+    }
+
+    fn far_translated_scene_gives_identical_hits_in(layout: Layout) {
         // Every coordinate is on a grid that stays exact at 10⁴, so the two scenes must agree bit
         // for bit in t, shape and primitive.
-        let near = Accel::new(scene(11, 1.0, Vec3::ZERO));
+        let near = build(layout, scene(11, 1.0, Vec3::ZERO));
         let offset = Vec3::splat(1e4);
-        let far = Accel::new(scene(11, 1.0, offset));
+        let far = build(layout, scene(11, 1.0, offset));
         let mut rng = Pcg64::seed_from_u64(12);
         for _ in 0..20_000 {
             let o = snap(vec(&mut rng, -1.5, 1.5));
@@ -721,6 +830,12 @@ mod tests {
 
     #[test]
     fn tiny_and_huge_distances_are_hit() {
+        for layout in LAYOUTS {
+            tiny_and_huge_distances_are_hit_in(layout);
+        }
+    }
+
+    fn tiny_and_huge_distances_are_hit_in(layout: Layout) {
         // A 10⁻⁶-sized triangle 10⁻⁶ in front of the origin, inside a scene of size 10⁻³.
         let tri = |c: Vec3, s: f32| {
             let p = vec![
@@ -733,11 +848,14 @@ mod tests {
                 0,
             )
         };
-        let small = Accel::new(vec![
-            tri(Vec3::new(0.0, 0.0, 1e-6), 1e-6),
-            tri(Vec3::new(0.0, 0.0, 1e-3), 1e-3),
-            tri(Vec3::new(5e-4, 0.0, -1e-3), 1e-3),
-        ]);
+        let small = build(
+            layout,
+            vec![
+                tri(Vec3::new(0.0, 0.0, 1e-6), 1e-6),
+                tri(Vec3::new(0.0, 0.0, 1e-3), 1e-3),
+                tri(Vec3::new(5e-4, 0.0, -1e-3), 1e-3),
+            ],
+        );
         let h = small.intersect(&Ray::new(Vec3::ZERO, Vec3::Z)).unwrap();
         assert_eq!(h.shape, 0);
         assert!((h.t - 1e-6).abs() < 1e-12);
@@ -745,14 +863,17 @@ mod tests {
         assert!(!small.occluded(&Ray::segment(Vec3::ZERO, Vec3::Z, 0.5e-6)));
 
         // Hits at t ≈ 10⁶ and from 10⁶ away.
-        let big = Accel::new(vec![
-            tri(Vec3::new(0.0, 0.0, 1e6), 1e3),
-            tri(Vec3::new(0.0, 0.0, 0.0), 1.0),
-            shape(
-                Geometry::Sphere(Sphere::new(Vec3::new(0.0, 5.0, 0.0), 1.0)),
-                0,
-            ),
-        ]);
+        let big = build(
+            layout,
+            vec![
+                tri(Vec3::new(0.0, 0.0, 1e6), 1e3),
+                tri(Vec3::new(0.0, 0.0, 0.0), 1.0),
+                shape(
+                    Geometry::Sphere(Sphere::new(Vec3::new(0.0, 5.0, 0.0), 1.0)),
+                    0,
+                ),
+            ],
+        );
         let h = big
             .intersect(&Ray::new(Vec3::new(0.0, 0.0, 1.0), Vec3::Z))
             .unwrap();
@@ -774,15 +895,24 @@ mod tests {
 
     #[test]
     fn empty_and_single_primitive_scenes() {
-        let empty = Accel::new(Vec::new());
+        for layout in LAYOUTS {
+            empty_and_single_primitive_scenes_in(layout);
+        }
+    }
+
+    fn empty_and_single_primitive_scenes_in(layout: Layout) {
+        let empty = build(layout, Vec::new());
         let ray = Ray::new(Vec3::ZERO, Vec3::Z);
         assert!(empty.intersect(&ray).is_none() && !empty.occluded(&ray));
         assert_eq!(empty.triangle_count(), 0);
 
-        let one = Accel::new(vec![shape(
-            Geometry::Sphere(Sphere::new(Vec3::new(0.0, 0.0, 3.0), 1.0)),
-            4,
-        )]);
+        let one = build(
+            layout,
+            vec![shape(
+                Geometry::Sphere(Sphere::new(Vec3::new(0.0, 0.0, 3.0), 1.0)),
+                4,
+            )],
+        );
         let h = one.intersect(&ray).unwrap();
         assert_eq!(
             (h.shape, h.primitive, h.material, h.light),
@@ -804,6 +934,12 @@ mod tests {
 
     #[test]
     fn triangle_hit_attributes() {
+        for layout in LAYOUTS {
+            triangle_hit_attributes_in(layout);
+        }
+    }
+
+    fn triangle_hit_attributes_in(layout: Layout) {
         let mesh = TriangleMesh::new(
             vec![Vec3::ZERO, Vec3::X, Vec3::Y],
             Some(vec![Vec3::Z, Vec3::Z, Vec3::new(0.0, 1.0, 1.0)]),
@@ -811,7 +947,7 @@ mod tests {
             vec![[0, 1, 2]],
         )
         .unwrap();
-        let accel = Accel::new(vec![shape(Geometry::Mesh(mesh), 0)]);
+        let accel = build(layout, vec![shape(Geometry::Mesh(mesh), 0)]);
         assert_eq!(accel.triangle_count(), 1);
         // From below: ng is not flipped towards the ray.
         let h = accel
@@ -849,6 +985,12 @@ mod tests {
 
     #[test]
     fn moving_shapes_are_hit_where_they_are_at_the_rays_time() {
+        for layout in LAYOUTS {
+            moving_shapes_are_hit_where_they_are_at_the_rays_time_in(layout);
+        }
+    }
+
+    fn moving_shapes_are_hit_where_they_are_at_the_rays_time_in(layout: Layout) {
         // Against a static BVH over the shapes moved to that instant (their geometry transformed,
         // not the ray): same shape, same t up to rounding, at every scale.
         for (v, &(scale, offset)) in [
@@ -861,7 +1003,7 @@ mod tests {
         {
             let shapes = scene(21, scale, offset);
             let motion = motions(&shapes, 22, scale, offset);
-            let accel = Accel::with_motion(shapes.clone(), motion.clone());
+            let accel = Accel::with_layout(shapes.clone(), motion.clone(), layout);
             assert!(accel.has_motion() && accel.motion(1).is_some() && accel.motion(0).is_none());
             let mut rng = Pcg64::seed_from_u64(23);
             let mut moving_hits = 0;
@@ -872,7 +1014,7 @@ mod tests {
                     .zip(&motion)
                     .map(|(s, m)| m.as_ref().map_or(s.clone(), |m| s.moved(&m.at(time))))
                     .collect();
-                let still = Accel::new(snapshot);
+                let still = build(layout, snapshot);
                 let (lo, hi) = accel.bounds();
                 let (slo, shi) = still.bounds();
                 assert!(
@@ -937,6 +1079,12 @@ mod tests {
 
     #[test]
     fn rays_leaving_a_moving_shape_do_not_hit_it_again() {
+        for layout in LAYOUTS {
+            rays_leaving_a_moving_shape_do_not_hit_it_again_in(layout);
+        }
+    }
+
+    fn rays_leaving_a_moving_shape_do_not_hit_it_again_in(layout: Layout) {
         use crate::spawn_ray;
         for &(scale, offset) in &[
             (1.0, Vec3::ZERO),
@@ -951,7 +1099,7 @@ mod tests {
                 let shapes = vec![shape(geometry, 0)];
                 let motion = motions(&[shapes[0].clone(), shapes[0].clone()], 5, scale, offset);
                 let m = motion[1].clone().unwrap();
-                let accel = Accel::with_motion(shapes, vec![Some(m.clone())]);
+                let accel = Accel::with_layout(shapes, vec![Some(m.clone())], layout);
                 let mut rng = Pcg64::seed_from_u64(6);
                 let mut tested = 0;
                 for k in 0..20_000 {

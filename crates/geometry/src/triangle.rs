@@ -39,6 +39,16 @@ impl WatertightRay {
         })
     }
 
+    /// The axis permutation (x, y, z), the origin and the shear (sx, sy, sz), for the packet test.
+    #[inline(always)]
+    pub(crate) fn parts(&self) -> ([usize; 3], [f32; 3], [f32; 3]) {
+        (
+            [self.kx, self.ky, self.kz],
+            self.o.to_array(),
+            [self.sx, self.sy, self.sz],
+        )
+    }
+
     /// Vertex translated to the ray origin, permuted and sheared (z is left unscaled, as in pbrt).
     #[inline(always)]
     fn transform(&self, v: Vec3) -> Vec3 {
