@@ -1,5 +1,6 @@
 //! `lightlab`: render scenes with a chosen light-transport integrator and run experiments.
 
+mod bench;
 mod compare;
 mod experiment;
 mod interrupt;
@@ -31,6 +32,7 @@ enum Command {
     Convergence(experiment::ConvergenceArgs),
     Replay(replay::ReplayArgs),
     Compare(compare::CompareArgs),
+    Bench(bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -45,6 +47,7 @@ fn main() -> ExitCode {
         Command::Convergence(args) => experiment::convergence(args),
         Command::Replay(args) => replay::run(args),
         Command::Compare(args) => compare::run(args),
+        Command::Bench(args) => bench::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,220 @@
+//! `lightlab bench`: speed and error per sample of integrators, measured side by side in one run.
+
+use crate::progress::{Bar, Unit};
+use crate::render::parse_resolution;
+use clap::Args;
+use lightlab_core::NoProgress;
+use lightlab_experiments::atomic::write_atomic;
+use lightlab_experiments::desc::ReferenceDesc;
+use lightlab_experiments::image_io::output_layers;
+use lightlab_experiments::metrics::{REL_EPSILON, errors};
+use lightlab_experiments::reference::reference;
+use lightlab_experiments::runner::load_scene;
+use lightlab_integrators::{Budget, IntegratorConfig};
+use lightlab_testkit::timing::{peak_rss_bytes, timed};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// Benchmark integrators: for each scene, integrator and thread count, one timed render (after a
+/// one-sample warm-up on the same threads) and its error against a cached high-sample reference.
+/// Prints a Markdown table of paths per CPU-second (a camera path for Path, a light path for
+/// Light, a camera–light subpath pair for Bdpt and Vcm), rays per second, relMSE, relMSE × spp
+/// (the variance of one sample, relative — constant in spp for an unbiased estimator, so
+/// comparable across integrators run at different spp) and efficiency 1 / (relMSE × CPU seconds).
+/// CPU time is the process's user + system time over all threads (/proc/self/stat), so rates per
+/// CPU-second compare thread counts fairly. Figures are ratios within one run: compare rows,
+/// not runs on different days (BENCHMARKS.md).
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Scene files. Default: scenes/cornell-box.ron and scenes/caustic-sphere.ron.
+    scenes: Vec<PathBuf>,
+    /// An integrator and its samples per pixel as INTEGRATOR@SPP, e.g. 'Path(russian_roulette: 5)@64'
+    /// (repeatable). Default: Path()@256, Light()@256, Bdpt()@32, Vcm()@32.
+    #[arg(short, long)]
+    integrator: Vec<String>,
+    /// Thread counts to run each integrator on, comma-separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [1, 2])]
+    threads: Vec<usize>,
+    /// Image size WIDTHxHEIGHT of every render and of the reference.
+    #[arg(long, value_parser = parse_resolution, default_value = "128x128")]
+    resolution: (u32, u32),
+    /// Integrator of the reference (RON).
+    #[arg(long, default_value = "Bdpt()")]
+    reference: String,
+    /// Samples per pixel of the reference (rendered once on all cores, then cached).
+    #[arg(long, default_value_t = 4096)]
+    reference_spp: u32,
+    /// Directory of cached references, shared with `lightlab run`.
+    #[arg(long, default_value = "results/references")]
+    references: PathBuf,
+    /// Seed of every timed render.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Also write the rows as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// One measured render.
+#[derive(Serialize)]
+struct Row {
+    scene: String,
+    integrator: String,
+    threads: usize,
+    spp: u32,
+    paths: u64,
+    wall_seconds: f64,
+    cpu_seconds: f64,
+    /// `None` when the render took less CPU time than the clock resolves (10 ms).
+    paths_per_cpu_second: Option<f64>,
+    rays_per_second: f64,
+    rays_per_path: f64,
+    rel_mse: f64,
+    rel_mse_times_spp: f64,
+    efficiency: Option<f64>,
+}
+
+/// `INTEGRATOR@SPP`, checked: the integrator as written, its settings and its spp.
+fn parse_spec(s: &str) -> Result<(String, IntegratorConfig, u32), String> {
+    let (ron, spp) = s
+        .rsplit_once('@')
+        .ok_or_else(|| format!("--integrator '{s}': write INTEGRATOR@SPP, e.g. 'Path()@64'"))?;
+    let spp: u32 =
+        spp.trim().parse().ok().filter(|&n| n >= 1).ok_or_else(|| {
+            format!("--integrator '{s}': samples per pixel must be an integer ≥ 1")
+        })?;
+    let config =
+        IntegratorConfig::from_ron(ron).map_err(|e| format!("--integrator '{ron}': {e}"))?;
+    Ok((ron.trim().to_string(), config, spp))
+}
+
+pub fn run(args: BenchArgs) -> Result<(), String> {
+    let specs: Vec<String> = if args.integrator.is_empty() {
+        ["Path()@256", "Light()@256", "Bdpt()@32", "Vcm()@32"]
+            .map(String::from)
+            .to_vec()
+    } else {
+        args.integrator.clone()
+    };
+    let integrators = specs
+        .iter()
+        .map(|s| parse_spec(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    if args.threads.contains(&0) {
+        return Err("--threads: every thread count must be ≥ 1".into());
+    }
+    if args.reference_spp == 0 {
+        return Err("--reference-spp must be ≥ 1".into());
+    }
+    let scenes = if args.scenes.is_empty() {
+        vec![
+            PathBuf::from("scenes/cornell-box.ron"),
+            PathBuf::from("scenes/caustic-sphere.ron"),
+        ]
+    } else {
+        args.scenes.clone()
+    };
+    let reference_desc = ReferenceDesc::Render {
+        integrator: args.reference.clone(),
+        spp: args.reference_spp,
+    };
+    let mut rows = Vec::new();
+    println!(
+        "| scene | integrator | threads | spp | wall s | CPU s | M paths / CPU-s | M rays / s | rays per path | relMSE | relMSE × spp | efficiency |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for path in &scenes {
+        let (scene, text) = load_scene(path, Some(args.resolution))?;
+        let name = path
+            .file_stem()
+            .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        let bar = Bar::new("reference", Unit::Percent);
+        let log = |m: &str| eprintln!("{m}");
+        let r = reference(
+            &reference_desc,
+            path.parent().unwrap_or(Path::new(".")),
+            &args.references,
+            &name,
+            &text,
+            &scene,
+            &[],
+            &bar,
+            &log,
+        )?;
+        bar.finish();
+        eprintln!(
+            "reference for {name}: {} ({})",
+            r.path.display(),
+            if r.cached { "cached" } else { "rendered now" }
+        );
+        for (label, config, spp) in &integrators {
+            let integrator = config.build()?;
+            integrator
+                .check_scene(&scene)
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+            for &threads in &args.threads {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| format!("cannot start worker threads: {e}"))?;
+                pool.install(|| integrator.render(&scene, &Budget::Samples(1), 0, &NoProgress));
+                let (out, wall, cpu) = timed(|| {
+                    pool.install(|| {
+                        integrator.render(&scene, &Budget::Samples(*spp), args.seed, &NoProgress)
+                    })
+                });
+                let layers = output_layers(&out);
+                let e = errors(&layers[0].pixels, &r.image)
+                    .ok_or("image and reference sizes differ")?;
+                let paths = out.stats.samples;
+                let row = Row {
+                    scene: name.clone(),
+                    integrator: config.to_ron(),
+                    threads,
+                    spp: *spp,
+                    paths,
+                    wall_seconds: wall,
+                    cpu_seconds: cpu,
+                    paths_per_cpu_second: (cpu > 0.0).then(|| paths as f64 / cpu),
+                    rays_per_second: out.stats.rays as f64 / wall,
+                    rays_per_path: out.stats.rays as f64 / paths as f64,
+                    rel_mse: e.rel_mse,
+                    rel_mse_times_spp: e.rel_mse * *spp as f64,
+                    efficiency: (cpu > 0.0).then(|| 1.0 / (e.rel_mse * cpu)),
+                };
+                let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map_or("—".into(), f);
+                println!(
+                    "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {:.2} | {:.2} | {:.3e} | {:.3e} | {} |",
+                    row.scene,
+                    label,
+                    threads,
+                    spp,
+                    wall,
+                    cpu,
+                    or_dash(row.paths_per_cpu_second, &|r| format!("{:.3}", r / 1e6)),
+                    row.rays_per_second / 1e6,
+                    row.rays_per_path,
+                    row.rel_mse,
+                    row.rel_mse_times_spp,
+                    or_dash(row.efficiency, &|e| format!("{e:.1}"))
+                );
+                rows.push(row);
+            }
+        }
+    }
+    println!(
+        "\nrelMSE = mean of ((x − r)² − v_r) / (r² + {REL_EPSILON}) over pixels and channels, r the \
+         reference ({} at {} spp, {}×{}) and v_r its variance of the mean; — where a render took \
+         less CPU time than the clock resolves (10 ms: raise its spp); peak resident memory {:.1} MB",
+        args.reference,
+        args.reference_spp,
+        args.resolution.0,
+        args.resolution.1,
+        peak_rss_bytes() as f64 / 1e6
+    );
+    if let Some(json) = &args.json {
+        let text = serde_json::to_string_pretty(&rows).expect("rows serialise");
+        write_atomic(json, text.as_bytes()).map_err(|e| format!("{}: {e}", json.display()))?;
+    }
+    Ok(())
+}

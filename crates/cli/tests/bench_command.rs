@@ -1,0 +1,100 @@
+//! `lightlab bench` end to end: the table and JSON rows, the reference cache, identical errors on
+//! every thread count (the renders are deterministic), and clear errors for bad flags.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn lightlab() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_lightlab"))
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+#[test]
+fn bench_measures_every_integrator_and_thread_count() {
+    let dir = std::env::temp_dir().join(format!("lightlab-cli-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let json = dir.join("bench.json");
+    let bench = || {
+        lightlab()
+            .args(["bench", "--resolution", "16x16", "--reference-spp", "64"])
+            .args([
+                "-i",
+                "Path()@16",
+                "-i",
+                "Light(max_bounces: 4)@8",
+                "--threads",
+                "1,2",
+            ])
+            .arg("--references")
+            .arg(dir.join("references"))
+            .arg("--json")
+            .arg(&json)
+            .arg(repo().join("scenes/cornell-box.ron"))
+            .output()
+            .unwrap()
+    };
+    let first = bench();
+    let stderr = String::from_utf8_lossy(&first.stderr);
+    assert!(first.status.success(), "{stderr}");
+    assert!(stderr.contains("rendered now"), "{stderr}");
+    let table = String::from_utf8_lossy(&first.stdout);
+    assert_eq!(
+        table
+            .lines()
+            .filter(|l| l.starts_with("| cornell-box |"))
+            .count(),
+        4,
+        "{table}"
+    );
+    let rows: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(rows.len(), 4);
+    for pair in rows.chunks(2) {
+        let (one, two) = (&pair[0], &pair[1]);
+        assert_eq!(
+            (one["threads"].as_u64(), two["threads"].as_u64()),
+            (Some(1), Some(2))
+        );
+        let spp = one["spp"].as_f64().unwrap();
+        assert_eq!(one["paths"].as_f64().unwrap(), 16.0 * 16.0 * spp);
+        let rel = one["rel_mse"].as_f64().unwrap();
+        assert!(rel > 0.0 && rel < 1.0, "relMSE {rel}");
+        // Same seed, same image on any thread count, so the same error.
+        assert_eq!(one["rel_mse"], two["rel_mse"]);
+        let per_spp = one["rel_mse_times_spp"].as_f64().unwrap();
+        assert!(
+            (per_spp - rel * spp).abs() <= 1e-12 * per_spp,
+            "{per_spp} against {rel} × {spp}"
+        );
+        // Null only when the render was shorter than the CPU clock's 10 ms tick.
+        let rate = &one["paths_per_cpu_second"];
+        assert!(rate.is_null() || rate.as_f64().unwrap() > 0.0, "{rate}");
+    }
+    // The reference is now cached.
+    let again = bench();
+    let stderr = String::from_utf8_lossy(&again.stderr);
+    assert!(
+        again.status.success() && stderr.contains("(cached)"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bench_rejects_bad_flags() {
+    for (args, expected) in [
+        (vec!["-i", "Path()"], "INTEGRATOR@SPP"),
+        (vec!["-i", "Path()@0"], "≥ 1"),
+        (vec!["-i", "Nope()@4"], "Nope"),
+        (vec!["--threads", "0"], "thread count"),
+    ] {
+        let out = lightlab().arg("bench").args(&args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
