@@ -145,9 +145,8 @@ pub struct AccelStats {
 pub struct Accel {
     shapes: Vec<Shape>,
     structure: Structure,
-    /// Static primitives (degenerate triangles left out).
-    primitives: usize,
-    /// Each static primitive's shape and index in it, in the structure's primitive order.
+    /// Each static primitive's shape and index in it (degenerate triangles left out), in the
+    /// structure's primitive order.
     refs: Vec<PrimRef>,
     canonical: Canonical,
     bounds: (Vec3, Vec3),
@@ -255,23 +254,26 @@ impl Accel {
             Geometry::Mesh(mesh) => Primitive::Triangle(mesh.vertices(r.index as usize)),
             Geometry::Sphere(sphere) => Primitive::Sphere(*sphere),
         };
+        let static_triangles = refs
+            .iter()
+            .filter(|r| matches!(shapes[r.shape as usize].geometry, Geometry::Mesh(_)))
+            .count();
         let wide = match layout {
             Layout::BySize if refs.len() > WIDE_MAX_PRIMITIVES => None,
             Layout::Compressed => None,
             _ => {
                 let prims: Vec<Primitive> = refs.iter().map(primitive).collect();
-                let ids: Vec<u32> = (0..refs.len() as u32).collect();
-                Bvh4::build(&prims, &ids).map(|b| (b, prims))
+                Bvh4::build(&prims)
             }
         };
-        let (structure, prims, refs) = if let Some((bvh4, prims)) = wide {
-            (Structure::Wide(bvh4), prims, refs)
+        let (structure, refs) = if let Some(bvh4) = wide {
+            (Structure::Wide(bvh4), refs)
         } else if refs.is_empty() {
             let empty = Structure::Compressed {
                 bvh: CwBvh::default(),
                 prims: Vec::new(),
             };
-            (empty, Vec::new(), Vec::new())
+            (empty, Vec::new())
         } else {
             let aabbs: Vec<Aabb> = boxes
                 .par_iter()
@@ -294,23 +296,15 @@ impl Accel {
                 .collect();
             // The traversal indexes leaf order directly; the indirection is no longer needed.
             bvh.primitive_indices = Vec::new();
-            let prims: Vec<Primitive> = leaf_refs.par_iter().map(primitive).collect();
-            let structure = Structure::Compressed {
-                bvh,
-                prims: prims.clone(),
-            };
-            (structure, prims, leaf_refs)
+            let prims = leaf_refs.par_iter().map(primitive).collect();
+            (Structure::Compressed { bvh, prims }, leaf_refs)
         };
 
-        let triangle_count = prims
-            .iter()
-            .filter(|p| matches!(p, Primitive::Triangle(_)))
-            .count()
-            + moving.iter().map(|m| m.accel.triangle_count).sum::<usize>();
+        let triangle_count =
+            static_triangles + moving.iter().map(|m| m.accel.triangle_count).sum::<usize>();
         Accel {
             shapes,
             structure,
-            primitives: prims.len(),
             refs,
             canonical,
             bounds,
@@ -358,7 +352,7 @@ impl Accel {
                 AccelStats {
                     nodes: bvh.node_count(),
                     node_bytes,
-                    primitives: self.primitives,
+                    primitives: self.refs.len(),
                     primitive_bytes: primitive_bytes + ref_bytes,
                 }
             }
@@ -400,7 +394,7 @@ impl Accel {
     }
 
     fn intersect_static(&self, ray: &Ray) -> Option<Hit> {
-        if self.primitives == 0 || ray.t_max.is_nan() || ray.t_max <= 0.0 {
+        if self.refs.is_empty() || ray.t_max.is_nan() || ray.t_max <= 0.0 {
             return None;
         }
         let wray = WatertightRay::new(ray.o, ray.d)?;
@@ -414,7 +408,7 @@ impl Accel {
     }
 
     fn occluded_static(&self, ray: &Ray) -> bool {
-        if self.primitives == 0 || ray.t_max.is_nan() || ray.t_max <= 0.0 {
+        if self.refs.is_empty() || ray.t_max.is_nan() || ray.t_max <= 0.0 {
             return false;
         }
         let Some(wray) = WatertightRay::new(ray.o, ray.d) else {

@@ -42,7 +42,7 @@ struct Node {
 #[derive(Clone, Copy, Debug)]
 struct Packet {
     v: [[Vec4; 3]; 3],
-    /// The primitives' indices in the accelerator's primitive list, one per lane.
+    /// The primitives' indices in the builder's list, one per lane.
     ids: [u32; 4],
 }
 
@@ -240,9 +240,9 @@ fn scalar_hits(p: &Packet, w: &WatertightRay, t_max: f32) -> PacketHits {
 }
 
 impl Bvh4 {
-    /// Builds over `prims`, primitive `i` reported as id `ids[i]`; `None` when the tree would be
-    /// deeper than the traversal's stack allows (then the caller uses another structure).
-    pub(crate) fn build(prims: &[Primitive], ids: &[u32]) -> Option<Bvh4> {
+    /// Builds over `prims`, primitive `i` reported as id `i`; `None` when the tree would be deeper
+    /// than the traversal's stack allows (then the caller uses another structure).
+    pub(crate) fn build(prims: &[Primitive]) -> Option<Bvh4> {
         let mut items: Vec<Item> = prims
             .iter()
             .enumerate()
@@ -275,7 +275,6 @@ impl Bvh4 {
         bvh.root = Builder {
             bvh: &mut bvh,
             prims,
-            ids,
         }
         .subtree(&mut items, 0)?;
         Some(bvh)
@@ -417,7 +416,6 @@ impl Bvh4 {
 struct Builder<'a> {
     bvh: &'a mut Bvh4,
     prims: &'a [Primitive],
-    ids: &'a [u32],
 }
 
 impl Builder<'_> {
@@ -474,7 +472,7 @@ impl Builder<'_> {
         let bvh = &mut *self.bvh;
         let first = items[0].index as usize;
         if let Primitive::Sphere(s) = self.prims[first] {
-            bvh.spheres.push((s, self.ids[first]));
+            bvh.spheres.push((s, first as u32));
             return LEAF | SPHERE | (bvh.spheres.len() - 1) as u32;
         }
         let mut v = [[[0.0f32; 4]; 3]; 3];
@@ -489,7 +487,7 @@ impl Builder<'_> {
                     v[k][a][lane] = vertex[a];
                 }
             }
-            ids[lane] = self.ids[i];
+            ids[lane] = i as u32;
         }
         bvh.packets.push(Packet {
             v: v.map(|v| v.map(Vec4::from_array)),
