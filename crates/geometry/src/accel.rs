@@ -205,7 +205,7 @@ impl Accel {
                         .into_par_iter()
                         .filter_map(|i| {
                             let v = mesh.vertices(i);
-                            triangle::geometric_normal(&v)?;
+                            mesh.geometric_normal(i)?;
                             let lo = v[0].min(v[1]).min(v[2]);
                             let hi = v[0].max(v[1]).max(v[2]);
                             let r = PrimRef {
@@ -431,12 +431,12 @@ impl Accel {
                 let i = r.index as usize;
                 let v = mesh.vertices(i);
                 // Degenerate triangles are not in the BVH, so the normal exists.
-                let ng = triangle::geometric_normal(&v)?;
+                let ng = mesh.geometric_normal(i)?;
                 let (p, p_error) = triangle::point_with_error(&v, b, 7);
                 let uvs = mesh.vertex_uvs(i);
                 let uv = b[0] * uvs[0] + b[1] * uvs[1] + b[2] * uvs[2];
                 let ns = mesh.shading_normal(i, b, ng);
-                (t, p, p_error, ng, ns, triangle::dpdu(&v, &uvs, ng), uv)
+                (t, p, p_error, ng, ns, mesh.dpdu(i), uv)
             }
             Geometry::Sphere(sphere) => {
                 let (t, s) = sphere.hit_surface(ray.o, ray.d, ray.t_max)?;

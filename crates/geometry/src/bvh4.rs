@@ -29,11 +29,12 @@ const EMPTY: u32 = u32::MAX;
 /// Factor on slab exit distances covering the slab test's rounding (as the compressed BVH's).
 const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(5);
 
-/// Four children's boxes, one lane per child; an empty slot has an inverted box (never hit).
+/// Four children's boxes, one lane per child: `bounds[a]` the low and `bounds[3 + a]` the high
+/// planes on axis a, so a ray picks its near and far planes by index, without a branch. An empty
+/// slot has an inverted box (never hit).
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    lo: [Vec4; 3],
-    hi: [Vec4; 3],
+    bounds: [Vec4; 6],
     child: [u32; 4],
 }
 
@@ -78,6 +79,10 @@ struct Item {
 /// Deepest tree the traversal stacks hold (three pending children per level).
 const MAX_DEPTH: usize = 20;
 
+/// Trees at most this deep (up to 4⁵ leaves, ≈ 2 000 triangles) are traversed with a stack of
+/// `3 · SHALLOW + 1` entries instead of `3 · MAX_DEPTH + 1`.
+const SHALLOW: usize = 5;
+
 /// The 4-wide BVH. `Sync + Send`.
 #[derive(Debug, Default)]
 pub(crate) struct Bvh4 {
@@ -86,14 +91,19 @@ pub(crate) struct Bvh4 {
     spheres: Vec<(Sphere, u32)>,
     /// What the root is: an inner node, a leaf, or `EMPTY`.
     root: u32,
+    /// Inner nodes on the longest path from the root: the traversal stacks hold at most three
+    /// pending children per level.
+    depth: usize,
 }
 
 /// The ray as the node and packet tests use it: origin, inverse direction with zero components
-/// replaced by tiny ones (finite slab distances), and the watertight test's per-ray constants.
+/// replaced by tiny ones (finite slab distances), and, per axis, the index of the near and the far
+/// plane in [`Node::bounds`].
 struct Traversal {
     o: [Vec4; 3],
     inv_d: [Vec4; 3],
-    negative: [bool; 3],
+    near: [usize; 3],
+    far: [usize; 3],
 }
 
 impl Traversal {
@@ -104,6 +114,7 @@ impl Traversal {
         let tiny = Vec3A::splat(d.abs().max_element() * (1.0 / (1u64 << 60) as f32));
         let d = Vec3A::select(d.abs().cmplt(tiny), tiny, d);
         let inv = d.recip();
+        let negative = [d.x < 0.0, d.y < 0.0, d.z < 0.0];
         Traversal {
             o: [
                 Vec4::splat(ray.o.x),
@@ -111,7 +122,8 @@ impl Traversal {
                 Vec4::splat(ray.o.z),
             ],
             inv_d: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
-            negative: [d.x < 0.0, d.y < 0.0, d.z < 0.0],
+            near: std::array::from_fn(|a| a + 3 * negative[a] as usize),
+            far: std::array::from_fn(|a| a + 3 * !negative[a] as usize),
         }
     }
 
@@ -121,13 +133,8 @@ impl Traversal {
         let mut near = Vec4::ZERO;
         let mut far = Vec4::splat(f32::INFINITY);
         for a in 0..3 {
-            let (n, f) = if self.negative[a] {
-                (node.hi[a], node.lo[a])
-            } else {
-                (node.lo[a], node.hi[a])
-            };
-            near = near.max((n - self.o[a]) * self.inv_d[a]);
-            far = far.min((f - self.o[a]) * self.inv_d[a]);
+            near = near.max((node.bounds[self.near[a]] - self.o[a]) * self.inv_d[a]);
+            far = far.min((node.bounds[self.far[a]] - self.o[a]) * self.inv_d[a]);
         }
         let far = (far * FAR_SCALE).min(Vec4::splat(t_max));
         (near, near.cmple(far).bitmask())
@@ -155,6 +162,16 @@ impl PacketRay {
             s: s.map(Vec4::splat),
         }
     }
+
+    /// Vertices (one per lane) translated to the origin, permuted (z the dominant axis) and
+    /// sheared.
+    #[inline(always)]
+    fn transform(&self, v: &[Vec4; 3]) -> [Vec4; 3] {
+        let x = v[self.k[0]] - self.o[0];
+        let y = v[self.k[1]] - self.o[1];
+        let z = v[self.k[2]] - self.o[2];
+        [x + self.s[0] * z, y + self.s[1] * z, z]
+    }
 }
 
 /// Lanes of a packet's watertight test (Woop et al. 2013 as in [`triangle::intersect`]): which
@@ -167,14 +184,11 @@ struct PacketHits {
 
 #[inline(always)]
 fn packet_hits(p: &Packet, r: &PacketRay, w: &WatertightRay, t_max: f32) -> PacketHits {
-    // Vertices translated to the origin, permuted (z the dominant axis) and sheared.
-    let transform = |v: &[Vec4; 3]| {
-        let x = v[r.k[0]] - r.o[0];
-        let y = v[r.k[1]] - r.o[1];
-        let z = v[r.k[2]] - r.o[2];
-        [x + r.s[0] * z, y + r.s[1] * z, z]
-    };
-    let [p0, p1, p2] = [transform(&p.v[0]), transform(&p.v[1]), transform(&p.v[2])];
+    let [p0, p1, p2] = [
+        r.transform(&p.v[0]),
+        r.transform(&p.v[1]),
+        r.transform(&p.v[2]),
+    ];
     let e0 = p1[0] * p2[1] - p1[1] * p2[0];
     let e1 = p2[0] * p0[1] - p2[1] * p0[0];
     let e2 = p0[0] * p1[1] - p0[1] * p1[0];
@@ -300,6 +314,23 @@ impl Bvh4 {
         w: &WatertightRay,
         t_max: f32,
     ) -> Option<(u32, f32, [f32; 3])> {
+        // A stack no deeper than the tree needs: zeroing 64 entries per ray cost more than
+        // a small scene's node tests.
+        if self.depth <= SHALLOW {
+            self.closest::<{ 3 * SHALLOW + 1 }>(ray, w, t_max)
+        } else {
+            self.closest::<{ 3 * MAX_DEPTH + 1 }>(ray, w, t_max)
+        }
+    }
+
+    /// [`Bvh4::intersect`] with a stack of `N` pending children.
+    #[inline(always)]
+    fn closest<const N: usize>(
+        &self,
+        ray: &Ray,
+        w: &WatertightRay,
+        t_max: f32,
+    ) -> Option<(u32, f32, [f32; 3])> {
         if self.root == EMPTY {
             return None;
         }
@@ -307,7 +338,7 @@ impl Bvh4 {
         let pr = PacketRay::new(w);
         let mut t_max = t_max;
         let mut closest = None;
-        let mut stack = [(0u32, 0.0f32); 64];
+        let mut stack = [(0u32, 0.0f32); N];
         let mut top = 0;
         let mut slot = self.root;
         loop {
@@ -315,24 +346,42 @@ impl Bvh4 {
                 let node = &self.nodes[slot as usize];
                 let (near, mut mask) = tr.node(node, t_max);
                 if mask != 0 {
-                    // Visit the nearest child next, push the others farthest first.
                     let near = near.to_array();
-                    let mut order = [(0u32, 0.0f32); 4];
-                    let mut n = 0;
+                    // Visit the nearest child next, push the others farthest first (children at
+                    // equal distances: the later lane first). One or two children, the usual
+                    // cases, skip the sorting loop and its branches.
+                    let first = mask.trailing_zeros() as usize;
+                    let rest = mask & (mask - 1);
+                    if rest == 0 {
+                        slot = node.child[first];
+                        continue;
+                    }
+                    if rest & (rest - 1) == 0 {
+                        let second = rest.trailing_zeros() as usize;
+                        let (nearer, farther) = if near[first] < near[second] {
+                            (first, second)
+                        } else {
+                            (second, first)
+                        };
+                        stack[top] = (node.child[farther], near[farther]);
+                        top += 1;
+                        slot = node.child[nearer];
+                        continue;
+                    }
+                    let base = top;
                     while mask != 0 {
                         let lane = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
-                        let mut j = n;
-                        while j > 0 && order[j - 1].1 < near[lane] {
-                            order[j] = order[j - 1];
+                        let mut j = top;
+                        while j > base && stack[j - 1].1 < near[lane] {
+                            stack[j] = stack[j - 1];
                             j -= 1;
                         }
-                        order[j] = (node.child[lane], near[lane]);
-                        n += 1;
+                        stack[j] = (node.child[lane], near[lane]);
+                        top += 1;
                     }
-                    stack[top..top + n - 1].copy_from_slice(&order[..n - 1]);
-                    top += n - 1;
-                    slot = order[n - 1].0;
+                    top -= 1;
+                    slot = stack[top].0;
                     continue;
                 }
             } else if slot & SPHERE != 0 {
@@ -373,12 +422,22 @@ impl Bvh4 {
     /// Whether anything is hit with 0 < t < t_max.
     #[inline]
     pub(crate) fn occluded(&self, ray: &Ray, w: &WatertightRay, t_max: f32) -> bool {
+        if self.depth <= SHALLOW {
+            self.any_hit::<{ 3 * SHALLOW + 1 }>(ray, w, t_max)
+        } else {
+            self.any_hit::<{ 3 * MAX_DEPTH + 1 }>(ray, w, t_max)
+        }
+    }
+
+    /// [`Bvh4::occluded`] with a stack of `N` pending children.
+    #[inline(always)]
+    fn any_hit<const N: usize>(&self, ray: &Ray, w: &WatertightRay, t_max: f32) -> bool {
         if self.root == EMPTY {
             return false;
         }
         let tr = Traversal::new(ray);
         let pr = PacketRay::new(w);
-        let mut stack = [0u32; 64];
+        let mut stack = [0u32; N];
         let mut top = 0;
         let mut slot = self.root;
         loop {
@@ -427,6 +486,7 @@ impl Builder<'_> {
         if depth == MAX_DEPTH {
             return None;
         }
+        self.bvh.depth = self.bvh.depth.max(depth + 1);
         // Four children: split the candidate with the largest box until there are four or none
         // can be split.
         let mut parts: Vec<&mut [Item]> = vec![items];
@@ -444,24 +504,29 @@ impl Builder<'_> {
             parts.push(right);
         }
         let index = self.bvh.nodes.len();
+        // Empty slots keep an inverted box: low planes at +∞, high planes at −∞.
+        let mut bounds4: [[f32; 4]; 6] = std::array::from_fn(|k| {
+            [if k < 3 {
+                f32::INFINITY
+            } else {
+                f32::NEG_INFINITY
+            }; 4]
+        });
         self.bvh.nodes.push(Node {
-            lo: [Vec4::splat(f32::INFINITY); 3],
-            hi: [Vec4::splat(f32::NEG_INFINITY); 3],
+            bounds: bounds4.map(Vec4::from_array),
             child: [EMPTY; 4],
         });
-        let (mut lo4, mut hi4) = ([[f32::INFINITY; 4]; 3], [[f32::NEG_INFINITY; 4]; 3]);
         let mut child = [EMPTY; 4];
         for (lane, part) in parts.into_iter().enumerate() {
             let (lo, hi) = bounds(part);
             for a in 0..3 {
-                lo4[a][lane] = lo[a];
-                hi4[a][lane] = hi[a];
+                bounds4[a][lane] = lo[a];
+                bounds4[3 + a][lane] = hi[a];
             }
             child[lane] = self.subtree(part, depth + 1)?;
         }
         self.bvh.nodes[index] = Node {
-            lo: lo4.map(Vec4::from_array),
-            hi: hi4.map(Vec4::from_array),
+            bounds: bounds4.map(Vec4::from_array),
             child,
         };
         Some(index as u32)
@@ -569,6 +634,66 @@ mod tests {
             (v * 4.0).round() / 4.0
         } else {
             v
+        }
+    }
+
+    /// Closest hit over `tris` one triangle at a time: (index, t).
+    fn brute_force(tris: &[[Vec3; 3]], w: &WatertightRay, t_max: f32) -> Option<(u32, f32)> {
+        let mut best = None;
+        let mut t_max = t_max;
+        for (i, t) in tris.iter().enumerate() {
+            if let Some(h) = triangle::intersect(w, t, t_max)
+                && h.t < t_max
+            {
+                t_max = h.t;
+                best = Some((i as u32, h.t));
+            }
+        }
+        best
+    }
+
+    /// Shallow trees take the small stack and deep ones the large; both find the brute-force
+    /// closest hit and occlusion, and on a shallow tree the large stack changes nothing.
+    #[test]
+    fn both_stack_sizes_find_the_closest_hit() {
+        let mut rng = Pcg64::seed_from_u64(11);
+        for (count, size, deep) in [(40, 0.6, false), (6000, 0.1, true)] {
+            let tris: Vec<[Vec3; 3]> = (0..count)
+                .map(|_| {
+                    let c = vertex(&mut rng);
+                    std::array::from_fn(|_| c + size * vertex(&mut rng))
+                })
+                .collect();
+            let prims: Vec<Primitive> = tris.iter().map(|&t| Primitive::Triangle(t)).collect();
+            let bvh = Bvh4::build(&prims).unwrap();
+            assert_eq!(
+                bvh.depth > SHALLOW,
+                deep,
+                "{count} triangles, depth {}",
+                bvh.depth
+            );
+            let mut hits = 0;
+            for _ in 0..5_000 {
+                let o = vertex(&mut rng) * 1.5;
+                let ray = Ray::new(o, vertex(&mut rng));
+                let Some(w) = WatertightRay::new(ray.o, ray.d) else {
+                    continue;
+                };
+                let expected = brute_force(&tris, &w, f32::INFINITY);
+                let got = bvh.intersect(&ray, &w, f32::INFINITY);
+                assert_eq!(got.map(|(id, t, _)| (id, t)), expected);
+                assert_eq!(bvh.occluded(&ray, &w, f32::INFINITY), expected.is_some());
+                if !deep {
+                    let large = bvh.closest::<{ 3 * MAX_DEPTH + 1 }>(&ray, &w, f32::INFINITY);
+                    assert_eq!(large.map(|(id, t, _)| (id, t)), expected);
+                    assert_eq!(
+                        bvh.any_hit::<{ 3 * MAX_DEPTH + 1 }>(&ray, &w, f32::INFINITY),
+                        expected.is_some()
+                    );
+                }
+                hits += usize::from(expected.is_some());
+            }
+            assert!(hits > 1_000, "{count} triangles: {hits} hits");
         }
     }
 

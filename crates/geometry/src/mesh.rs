@@ -21,6 +21,17 @@ pub struct TriangleMesh {
     /// Triangle choice ∝ area; `None` when the mesh has zero area.
     area_distribution: Option<Distribution1D>,
     area: f32,
+    /// Per triangle, what every hit and light sample on it needs and no ray changes, computed
+    /// once here.
+    frames: Vec<TriangleFrame>,
+}
+
+/// A triangle's unit geometric normal ([`triangle::geometric_normal`]; zero for a degenerate
+/// triangle) and ∂p/∂u ([`triangle::dpdu`] under the mesh's (u, v)).
+#[derive(Clone, Copy, Debug)]
+struct TriangleFrame {
+    ng: Vec3,
+    dpdu: Vec3,
 }
 
 /// What is wrong with mesh data given to [`TriangleMesh::new`].
@@ -111,7 +122,23 @@ impl TriangleMesh {
             indices,
             area_distribution: None,
             area: 0.0,
+            frames: Vec::new(),
         };
+        mesh.frames = (0..mesh.indices.len())
+            .map(|i| {
+                let v = mesh.vertices(i);
+                match triangle::geometric_normal(&v) {
+                    Some(ng) => TriangleFrame {
+                        ng,
+                        dpdu: triangle::dpdu(&v, &mesh.vertex_uvs(i), ng),
+                    },
+                    None => TriangleFrame {
+                        ng: Vec3::ZERO,
+                        dpdu: Vec3::ZERO,
+                    },
+                }
+            })
+            .collect();
         let areas: Vec<f32> = (0..mesh.indices.len())
             .map(|i| mesh.triangle_area(i))
             .collect();
@@ -136,6 +163,20 @@ impl TriangleMesh {
     #[inline]
     pub fn vertices(&self, i: usize) -> [Vec3; 3] {
         self.indices[i].map(|k| self.positions[k as usize])
+    }
+
+    /// Unit geometric normal of triangle `i` ([`triangle::geometric_normal`]); `None` when it is
+    /// degenerate.
+    #[inline]
+    pub fn geometric_normal(&self, i: usize) -> Option<Vec3> {
+        let ng = self.frames[i].ng;
+        (ng != Vec3::ZERO).then_some(ng)
+    }
+
+    /// ∂p/∂u of the non-degenerate triangle `i` under the mesh's (u, v) ([`triangle::dpdu`]).
+    #[inline]
+    pub(crate) fn dpdu(&self, i: usize) -> Vec3 {
+        self.frames[i].dpdu
     }
 
     /// The (u, v) of triangle `i`'s vertices ((0, 0), (1, 0), (0, 1) without uvs: barycentric).
@@ -193,7 +234,7 @@ impl TriangleMesh {
             p,
             p_error,
             // Sampled triangles have positive area, so the normal exists.
-            n: triangle::geometric_normal(&v).unwrap_or(Vec3::Z),
+            n: self.geometric_normal(i).unwrap_or(Vec3::Z),
             pdf: 1.0 / self.area,
         }
     }
