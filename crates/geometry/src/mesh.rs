@@ -3,7 +3,7 @@
 
 use crate::sampling::SurfaceSample;
 use crate::triangle::{self, DEFAULT_UV};
-use lightlab_core::{Vec2, Vec3};
+use lightlab_core::{Vec2, Vec3, gamma};
 use lightlab_samplers::{Distribution1D, warp};
 use std::fmt;
 
@@ -22,8 +22,25 @@ pub struct TriangleMesh {
     area_distribution: Option<Distribution1D>,
     area: f32,
     /// Per triangle, what every hit and light sample on it needs and no ray changes, computed
-    /// once here.
+    /// once here (24 bytes a triangle; recomputing them per hit cost more time than their load,
+    /// even on the 1.05 M-triangle benchmark mesh: BENCHMARKS.md, "Speed work", 2026-12-04).
     frames: Vec<TriangleFrame>,
+    /// A mesh of two triangles that make a parallelogram (a `Quad`, a rectangular area light) is
+    /// sampled as one, without choosing a triangle.
+    parallelogram: Option<Parallelogram>,
+}
+
+/// The parallelogram `origin + s·e1 + t·e2`, (s, t) ∈ [0, 1)², of a two-triangle mesh, with the
+/// unit normal of its first triangle and how far (per axis) its fourth corner lies from the
+/// mesh's shared vertex: the corners are rounded to f32, so the two triangles may close the
+/// parallelogram only to a few ulps, which the sampled points' error bound absorbs.
+#[derive(Clone, Copy, Debug)]
+struct Parallelogram {
+    origin: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    n: Vec3,
+    gap: Vec3,
 }
 
 /// A triangle's unit geometric normal ([`triangle::geometric_normal`]; zero for a degenerate
@@ -123,6 +140,7 @@ impl TriangleMesh {
             area_distribution: None,
             area: 0.0,
             frames: Vec::new(),
+            parallelogram: None,
         };
         mesh.frames = (0..mesh.indices.len())
             .map(|i| {
@@ -147,7 +165,43 @@ impl TriangleMesh {
             .area_distribution
             .as_ref()
             .map_or(0.0, |d| d.total() as f32);
+        mesh.parallelogram = mesh.as_parallelogram();
         Ok(mesh)
+    }
+
+    /// The parallelogram two triangles (a, b, c) and (a, c, d) sharing the diagonal a–c make, when
+    /// they do: coplanar, with the same orientation, and d − a + b − a = c − a to 16 ulps of the
+    /// largest coordinate (what rounding the corners of an exact parallelogram leaves).
+    fn as_parallelogram(&self) -> Option<Parallelogram> {
+        let [t0, t1] = self.indices[..] else {
+            return None;
+        };
+        let (n0, n1) = (self.geometric_normal(0)?, self.geometric_normal(1)?);
+        // The diagonal: the two vertices the triangles share, taken in t0's order (a before c).
+        let shared: Vec<usize> = (0..3).filter(|&k| t1.contains(&t0[k])).collect();
+        let [i, j] = shared[..] else {
+            return None;
+        };
+        let (a, b, c) = match (i, j) {
+            (0, 2) => (t0[0], t0[1], t0[2]),
+            (0, 1) => (t0[1], t0[2], t0[0]),
+            _ => (t0[2], t0[0], t0[1]),
+        };
+        let d = *t1.iter().find(|&&k| k != a && k != c)?;
+        let [a, b, c, d] = [a, b, c, d].map(|k| self.positions[k as usize]);
+        let gap = (c.as_dvec3() - (b.as_dvec3() + d.as_dvec3() - a.as_dvec3())).abs();
+        let scale = [a, b, c, d]
+            .iter()
+            .map(|p| p.abs().max_element())
+            .fold(0.0, f32::max);
+        let closes = gap.max_element() <= 16.0 * f64::from(f32::EPSILON) * f64::from(scale);
+        (n0.dot(n1) > 1.0 - 1e-6 && closes).then(|| Parallelogram {
+            origin: a,
+            e1: b - a,
+            e2: d - a,
+            n: n0,
+            gap: gap.as_vec3(),
+        })
     }
 
     /// Number of triangles.
@@ -214,9 +268,21 @@ impl TriangleMesh {
     }
 
     /// A point uniform over the whole mesh (pdf 1 / area): `u.x` picks the triangle ∝ area and is
-    /// then reused, remapped, for the point inside it (pbrt-v4 §A.4.2 and §6.5.4). A mesh of zero
-    /// area returns pdf 0.
+    /// then reused, remapped, for the point inside it (pbrt-v4 §A.4.2 and §6.5.4); a parallelogram
+    /// is sampled as one, `origin + u.x·e1 + u.y·e2`. A mesh of zero area returns pdf 0.
     pub fn sample_area(&self, u: Vec2) -> SurfaceSample {
+        if let Some(q) = &self.parallelogram {
+            let (along1, along2) = (u.x * q.e1, u.y * q.e2);
+            // The rounding of e1, e2, the products and the sums (γ₆, as pbrt-v4 bounds a sampled
+            // triangle point), and how far the rounded corners leave the exact parallelogram.
+            let p_error = gamma(6) * (q.origin.abs() + along1.abs() + along2.abs()) + q.gap;
+            return SurfaceSample {
+                p: q.origin + along1 + along2,
+                p_error,
+                n: q.n,
+                pdf: 1.0 / self.area,
+            };
+        }
         let Some(distribution) = &self.area_distribution else {
             return SurfaceSample {
                 p: self.positions.first().copied().unwrap_or(Vec3::ZERO),
@@ -283,5 +349,41 @@ mod tests {
         let s = m.sample_area(Vec2::splat(0.5));
         assert_eq!(s.pdf, 0.0);
         assert!(s.p.is_finite());
+    }
+
+    fn quad(corners: [Vec3; 4], flipped: bool) -> TriangleMesh {
+        let indices = if flipped {
+            vec![[0, 2, 1], [0, 3, 2]]
+        } else {
+            vec![[0, 1, 2], [0, 2, 3]]
+        };
+        TriangleMesh::new(corners.to_vec(), None, None, indices).unwrap()
+    }
+
+    /// Rectangles in either vertex order, near and far from the origin, are sampled as
+    /// parallelograms; kites, bent quads and other meshes are not.
+    #[test]
+    fn parallelograms_are_recognised() {
+        let (u, v) = (Vec3::new(0.8, 0.6, 0.0), Vec3::new(-0.18, 0.24, 0.4));
+        for c in [Vec3::ZERO, Vec3::new(1e4, -3e3, 7e3)] {
+            for flipped in [false, true] {
+                let m = quad([c - u - v, c + u - v, c + u + v, c - u + v], flipped);
+                let q = m.parallelogram.expect("a rectangle");
+                assert_eq!(Some(q.n), m.geometric_normal(0));
+                assert!((q.e1.cross(q.e2).length() - m.area()).abs() < 1e-5 * m.area());
+            }
+        }
+        let kite = [
+            Vec3::ZERO,
+            Vec3::new(1.0, -0.3, 0.0),
+            Vec3::new(2.5, 0.0, 0.0),
+            Vec3::Y,
+        ];
+        let bent = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.01), Vec3::Y];
+        for corners in [kite, bent] {
+            assert!(quad(corners, false).parallelogram.is_none());
+        }
+        let one = TriangleMesh::new(kite.to_vec(), None, None, vec![[0, 1, 2]]).unwrap();
+        assert!(one.parallelogram.is_none());
     }
 }
