@@ -11,6 +11,9 @@ use lightlab_core::{Vec2, Vec3};
 pub const NO_LIGHT: u32 = u32::MAX;
 
 /// The geometry of one shape.
+// A mesh carries more than a sphere (its cached sampling data); scenes hold few shapes, and
+// boxing it would add a pointer chase to every hit and light sample.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Geometry {
     Mesh(TriangleMesh),

@@ -198,7 +198,7 @@ mod tests {
     /// to a few cache lines and thresholds below, on and between the values (ties included).
     #[test]
     fn partition_point_equals_the_slices() {
-        for len in 0..70 {
+        for len in 0..70usize {
             let values: Vec<f32> = (0..len).map(|i| (i / 3) as f32).collect();
             let lines = Lines::new(values.iter().copied());
             for k in -2..=(2 * len as i32 / 3 + 2) {
