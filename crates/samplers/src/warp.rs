@@ -13,12 +13,27 @@ pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, PI / 4.0 * (o.y / o.x))
+    // θ = π/4·(y/x), or π/2 − φ with φ = π/4·(x/y), whose cosine and sine are φ's sine and
+    // cosine: both from an angle in [−π/4, π/4].
+    if o.x.abs() > o.y.abs() {
+        let (sin, cos) = sin_cos_quarter(PI / 4.0 * (o.y / o.x));
+        o.x * Vec2::new(cos, sin)
     } else {
-        (o.y, PI / 2.0 - PI / 4.0 * (o.x / o.y))
-    };
-    r * Vec2::new(theta.cos(), theta.sin())
+        let (sin, cos) = sin_cos_quarter(PI / 4.0 * (o.x / o.y));
+        o.y * Vec2::new(sin, cos)
+    }
+}
+
+/// Sine and cosine of |x| ≤ π/4 by the minimax polynomials of Cephes' `sinf`/`cosf` (Moshier
+/// 1989) on that interval: within 2 ulps of the exact values (tested), and branch-free and
+/// inlined, where the library's `sincosf` reduces any argument (it took 2.5 % of path tracing's
+/// time in the concentric map of cosine sampling).
+#[inline(always)]
+fn sin_cos_quarter(x: f32) -> (f32, f32) {
+    let z = x * x;
+    let sin = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * x + x;
+    let cos = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
+    (sin, cos)
 }
 
 /// Density of [`square_to_concentric_disk`] per unit area.
@@ -188,6 +203,27 @@ mod tests {
         (0..32).flat_map(|i| {
             (0..32).map(move |j| Vec2::new((i as f32 + 0.37) / 32.0, (j as f32 + 0.61) / 32.0))
         })
+    }
+
+    /// The polynomials are within 2 ulps of f64's sine and cosine over [−π/4, π/4].
+    #[test]
+    fn sin_cos_quarter_is_accurate() {
+        let n = 200_000;
+        for k in 0..=n {
+            let x = (-PI / 4.0) + (PI / 2.0) * k as f32 / n as f32;
+            let (s, c) = sin_cos_quarter(x);
+            let (es, ec) = (f64::from(x).sin(), f64::from(x).cos());
+            // One ulp of a value in (2⁻ᵏ⁻¹, 2⁻ᵏ] … near 0 the sine's ulp is that of x.
+            let ulp = |v: f64| f64::from(f32::EPSILON) * v.abs().max(f64::from(f32::MIN_POSITIVE));
+            assert!(
+                (f64::from(s) - es).abs() <= 2.0 * ulp(es),
+                "sin {x}: {s} vs {es}"
+            );
+            assert!(
+                (f64::from(c) - ec).abs() <= 2.0 * ulp(ec),
+                "cos {x}: {c} vs {ec}"
+            );
+        }
     }
 
     #[test]
