@@ -111,19 +111,25 @@ impl Distribution1D {
     /// so the same number can be reused for a continuous choice).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
-        // Last index with cdf[i] <= u, skipping zero-probability items.
+        // Last index with cdf[i] <= u, skipping zero-probability items; the one item of a
+        // single-item distribution (a scene's only light) without the search.
         let n = self.pmf.len;
-        let mut i = self
-            .cdf
-            .partition_point(|c| c <= u)
-            .saturating_sub(1)
-            .min(n - 1);
-        while self.pmf.get(i) == 0.0 && i > 0 {
-            i -= 1;
-        }
-        while self.pmf.get(i) == 0.0 {
-            i += 1;
-        }
+        let i = if n == 1 {
+            0
+        } else {
+            let mut i = self
+                .cdf
+                .partition_point(|c| c <= u)
+                .saturating_sub(1)
+                .min(n - 1);
+            while self.pmf.get(i) == 0.0 && i > 0 {
+                i -= 1;
+            }
+            while self.pmf.get(i) == 0.0 {
+                i += 1;
+            }
+            i
+        };
         let p = self.pmf.get(i);
         let remapped = ((u - self.cdf.get(i)) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
         (i, p, remapped)
@@ -140,6 +146,16 @@ mod tests {
         assert!(Distribution1D::new(&[0.0, 0.0]).is_none());
         assert!(Distribution1D::new(&[1.0, -1.0]).is_none());
         assert!(Distribution1D::new(&[1.0, f32::NAN]).is_none());
+    }
+
+    /// One item: always it, with probability 1 and u unchanged (below 1).
+    #[test]
+    fn a_single_item_is_always_chosen() {
+        let d = Distribution1D::new(&[3.5]).unwrap();
+        for u in [0.0, 1e-30, 0.25, 0.5, 0.999_999_9, 1.0 - f32::EPSILON / 2.0] {
+            let expected = u.min(1.0 - f32::EPSILON / 2.0);
+            assert_eq!(d.sample(u), (0, 1.0, expected), "u = {u}");
+        }
     }
 
     #[test]
