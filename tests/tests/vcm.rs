@@ -181,10 +181,12 @@ fn vcm_and_bpm_agree_with_path_tracing() {
 
 /// The merges' bias shrinks as the radius does: on the caustic sphere's paths of 2–4 bounces,
 /// `Bpm` (merges only) from a large first radius. The squared bias of the image after i passes —
-/// ‖mean over 8 seeds − reference‖² less the seeds' and the reference's variance — falls from 16
+/// ‖mean over 24 seeds − reference‖² less the seeds' and the reference's variance — falls from 16
 /// to 256 passes to at most half (r_i⁴ ∝ i^(2(α−1)) predicts a quarter at α = 0.75), while at
 /// α = 1 (a fixed radius) it stays within a factor 2 and after 256 passes is at least 3 times
-/// the shrinking radius's.
+/// the shrinking radius's. With 8 seeds the estimate was too noisy for these bounds: other seed
+/// sets failed them before and after the parallelogram light sampling changed the light paths
+/// (α = 1 drifting 3.5·10⁻⁵ → 1.2·10⁻⁵); with 24 it passes at three seed sets (900, 1900, 2900).
 #[test]
 fn merge_bias_shrinks_with_passes() {
     let sc = scene(&caustic_sphere((16, 16)));
@@ -198,7 +200,7 @@ fn merge_bias_shrinks_with_passes() {
         .unwrap()
         .build()
         .unwrap();
-        let seeds = 8;
+        let seeds = 24;
         // Per mark and pixel channel: Σ over seeds and Σ of squares.
         let mut sums = vec![[0.0f64; 2]; 2 * 3 * pixels];
         for seed in 0..seeds {
