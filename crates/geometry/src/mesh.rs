@@ -23,7 +23,8 @@ pub struct TriangleMesh {
     area: f32,
     /// Per triangle, what every hit and light sample on it needs and no ray changes, computed
     /// once here (24 bytes a triangle; recomputing them per hit cost more time than their load,
-    /// even on the 1.05 M-triangle benchmark mesh: BENCHMARKS.md, "Speed work", 2026-12-04).
+    /// even on the 1.05 M-triangle benchmark mesh: BENCHMARKS.md, "Speed work (issue 15): traversal,
+    /// hit records, light sampling").
     frames: Vec<TriangleFrame>,
     /// A mesh of two triangles that make a parallelogram (a `Quad`, a rectangular area light) is
     /// sampled as one, without choosing a triangle.
