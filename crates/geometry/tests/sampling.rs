@@ -97,12 +97,11 @@ fn rectangle(flipped: bool) -> (Shape, [[DVec3; 3]; 2]) {
     let v = Vec3::new(-0.36, 0.48, 0.8) * 0.5;
     let p = [c - u - v, c + u - v, c + u + v, c - u + v];
     let indices = if flipped {
-        vec![[0, 2, 1], [0, 3, 2]]
+        [[0, 2, 1], [0, 3, 2]]
     } else {
-        vec![[0, 1, 2], [0, 2, 3]]
+        [[0, 1, 2], [0, 2, 3]]
     };
-    let tris = [indices[0], indices[1]].map(|t| t.map(|k| p[k as usize].as_dvec3()));
-    (mesh_shape(p.to_vec(), indices), tris)
+    two_triangle_mesh(p, indices)
 }
 
 /// Two triangles sharing a diagonal that do not make a parallelogram (a kite): sampled by
@@ -114,9 +113,13 @@ fn kite() -> (Shape, [[DVec3; 3]; 2]) {
         Vec3::new(2.5, 0.0, 0.0),
         Vec3::new(1.0, 0.9, 0.0),
     ];
-    let indices = vec![[0, 1, 2], [0, 2, 3]];
-    let tris = [indices[0], indices[1]].map(|t| t.map(|k| p[k as usize].as_dvec3()));
-    (mesh_shape(p.to_vec(), indices), tris)
+    two_triangle_mesh(p, [[0, 1, 2], [0, 2, 3]])
+}
+
+/// The mesh of two triangles over the corners `p`, and its triangles in f64.
+fn two_triangle_mesh(p: [Vec3; 4], indices: [[u32; 3]; 2]) -> (Shape, [[DVec3; 3]; 2]) {
+    let tris = indices.map(|t| t.map(|k| p[k as usize].as_dvec3()));
+    (mesh_shape(p.to_vec(), indices.to_vec()), tris)
 }
 
 /// Area samples of a two-triangle mesh lie on one of its triangles (within their error bound),
