@@ -22,35 +22,38 @@ impl Bdpt {
         if matches!(heuristic, Mis::Only { .. }) {
             return 1.0;
         }
-        let mut lv: Vec<PathVertex> = light[..s].to_vec();
-        let mut cv: Vec<PathVertex> = camera[..t].to_vec();
-        // t = 1 samples the lens point (for s = t = 1 too, whose light vertex is the subpath's
-        // origin); s = 1 with t ≥ 2 samples a point on a light.
-        if t == 1 {
-            cv[0] = sampled.expect("t = 1 samples the camera vertex");
-        } else if s == 1 {
-            lv[0] = sampled.expect("s = 1 samples the light vertex");
-        }
-        // The connection vertices are never delta for the connection itself.
-        if t > 0 {
-            cv[t - 1].delta = false;
-        }
-        if s > 0 {
-            lv[s - 1].delta = false;
-        }
-        let rev = reverse_densities(scene, &lv, &cv, s, t);
-        if t > 0 {
-            cv[t - 1].pdf_rev = rev.camera;
-        }
-        if t > 1 {
-            cv[t - 2].pdf_rev = rev.camera_prev;
-        }
-        if s > 0 {
-            lv[s - 1].pdf_rev = rev.light;
-        }
-        if s > 1 {
-            lv[s - 2].pdf_rev = rev.light_prev;
-        }
+        // The vertices the strategy used, without copying the subpaths: t = 1 samples the lens
+        // point (for s = t = 1 too, whose light vertex is the subpath's origin), which is then
+        // the only camera vertex; s = 1 with t ≥ 2 samples a point on a light, the only light
+        // vertex.
+        let (lens, light_point);
+        let cv: &[PathVertex] = if t == 1 {
+            lens = [sampled.expect("t = 1 samples the camera vertex")];
+            &lens
+        } else {
+            &camera[..t]
+        };
+        let lv: &[PathVertex] = if s == 1 && t > 1 {
+            light_point = [sampled.expect("s = 1 samples the light vertex")];
+            &light_point
+        } else {
+            &light[..s]
+        };
+        let rev = reverse_densities(scene, lv, cv, s, t);
+        // The connection changes its end vertices and their predecessors: the ends are never delta
+        // for the connection itself, and all four take the reverse densities it implies.
+        let camera_rev = |i: usize| match t - i {
+            1 => rev.camera,
+            2 => rev.camera_prev,
+            _ => cv[i].pdf_rev,
+        };
+        let light_rev = |i: usize| match s - i {
+            1 => rev.light,
+            2 => rev.light_prev,
+            _ => lv[i].pdf_rev,
+        };
+        let camera_delta = |i: usize| i + 1 != t && cv[i].delta;
+        let light_delta = |i: usize| i + 1 != s && lv[i].delta;
         let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
         // Each other strategy i enters with rᵢ = pᵢ / p_s: the balance heuristic sums rᵢ, the power
         // heuristic (β = 2) rᵢ², uniform weights count the strategies (Veach 1997, §9.2).
@@ -63,22 +66,22 @@ impl Bdpt {
         let mut sum = 0.0f32;
         let mut ri = 1.0f32;
         for i in (1..t).rev() {
-            ri *= remap(cv[i].pdf_rev) / remap(cv[i].pdf_fwd);
-            if !cv[i].delta && !cv[i - 1].delta {
+            ri *= remap(camera_rev(i)) / remap(cv[i].pdf_fwd);
+            if !camera_delta(i) && !camera_delta(i - 1) {
                 sum += term(ri);
             }
         }
         ri = 1.0;
         for i in (0..s).rev() {
-            ri *= remap(lv[i].pdf_rev) / remap(lv[i].pdf_fwd);
+            ri *= remap(light_rev(i)) / remap(lv[i].pdf_fwd);
             let delta_before = if i > 0 {
-                lv[i - 1].delta
+                light_delta(i - 1)
             } else {
                 lv[0]
                     .light()
                     .is_some_and(|l| scene.lights[l as usize].is_delta())
             };
-            if !lv[i].delta && !delta_before {
+            if !light_delta(i) && !delta_before {
                 sum += term(ri);
             }
         }
