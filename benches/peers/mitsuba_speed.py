@@ -225,7 +225,8 @@ def main():
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), help="Mitsuba variants")
     ap.add_argument("--lightlab-integrator", action="append", metavar="RON",
                     help="Lightlab integrator(s) to time (repeatable; default 'Path()', as shipped; "
-                         "'Path(russian_roulette: 5)' starts roulette where Mitsuba's rr_depth does)")
+                         "'Path(russian_roulette: 5, roulette_threshold: 1.0)' plays roulette as Mitsuba's "
+                         "rr_depth 5 does, without its 0.95 cap on survival)")
     ap.add_argument("--lightlab", default=os.path.join(ROOT, "target", "release", "lightlab"))
     ap.add_argument("--out", default="/tmp/mitsuba-speed")
     args = ap.parse_args()

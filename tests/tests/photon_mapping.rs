@@ -11,7 +11,7 @@ use lightlab_integrators::photon::map::{GatherPoint, Kernel, PhotonMap, Search};
 use lightlab_integrators::photon::trace::{
     Keep, Photon, PhotonTracing, Traced, emit, photon_sampler, trace_photons,
 };
-use lightlab_integrators::{Counters, RenderOutput};
+use lightlab_integrators::{Counters, RenderOutput, RoulettePolicy};
 use lightlab_materials::{Bsdf, SurfaceBsdf};
 use lightlab_testkit::stats::{sidak, z_critical};
 use lightlab_tests::{caustic_sphere, cornell, furnace, render, scene};
@@ -124,7 +124,7 @@ fn point_light_irradiance_estimate_converges_with_kernel_bias() {
     let sc = point_over_plane();
     let how = PhotonTracing {
         max_bounces: 1,
-        russian_roulette: None,
+        roulette: RoulettePolicy::OFF,
         keep: Keep::All,
     };
     let points = [(0.3f32, -0.2f32), (0.8, 0.3), (-0.4, -0.9)];

@@ -1,6 +1,6 @@
 //! Integrator benchmark (BENCHMARKS.md, "Path tracing" and "Light and bidirectional tracing"):
 //! paths per CPU-second on the shipped Cornell box and caustic scenes for `Path()`, `Light()`,
-//! `Bdpt()` and `Vcm()` (no bounce limit; Russian roulette from the third bounce ends paths), on
+//! `Bdpt()` and `Vcm()` (no bounce limit; the default Russian roulette ends paths), on
 //! rayon pools of 1 and 2 threads, with rays per second, mean rays per path, the two-thread speed-up
 //! and peak memory. A "path" is a camera path for `Path`, a light path for `Light`, a camera–light
 //! subpath pair for `Bdpt` and `Vcm` (whose camera paths also merge with every light path of their

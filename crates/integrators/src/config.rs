@@ -16,6 +16,7 @@ use crate::photon::pm::PhotonMapper;
 use crate::photon::progressive::{Progressive, Variant};
 use crate::radiosity::{Radiosity, RadiosityConfig};
 use crate::vcm::{Vcm, VcmConfig};
+use crate::walk::RoulettePolicy;
 use serde::{Deserialize, Serialize};
 
 /// Declares [`IntegratorConfig`], one variant per integrator with its settings and how it is
@@ -123,20 +124,28 @@ pub trait Validate {
     fn validate(&self) -> Result<(), ConfigError>;
 }
 
-/// The bounce settings every integrator shares: unbounded paths need Russian roulette, and
-/// `min_bounces ≤ max_bounces`; and the path-class settings (`paths`, `layers`), which must parse.
+/// The bounce settings every integrator shares: unbounded paths need Russian roulette,
+/// `min_bounces ≤ max_bounces` and a roulette threshold in (0, 1]; and the path-class settings
+/// (`paths`, `layers`), which must parse.
 pub(crate) fn check_common(
     max_bounces: Option<u32>,
     min_bounces: u32,
-    russian_roulette: Option<u32>,
+    roulette: RoulettePolicy,
     paths: Option<&str>,
     layers: &Layers,
 ) -> Result<(), ConfigError> {
-    if max_bounces.is_none() && russian_roulette.is_none() {
+    if max_bounces.is_none() && roulette.start.is_none() {
         return invalid(
             "unbounded paths (max_bounces: None) need Russian roulette: set max_bounces or \
              russian_roulette",
         );
+    }
+    if !(roulette.threshold > 0.0 && roulette.threshold <= 1.0) {
+        return invalid(format!(
+            "roulette_threshold must be in (0, 1] (the relative throughput below which Russian \
+             roulette plays; 1 plays on every path), got {}",
+            roulette.threshold
+        ));
     }
     if let Some(max) = max_bounces
         && min_bounces > max
@@ -172,10 +181,17 @@ macro_rules! settings {
             /// max_bounces: k` isolates the k-th term of the Neumann series. Default 0.
             pub min_bounces: u32,
             /// Russian roulette from this many scattering vertices on, on every walk the
-            /// integrator makes (camera, light, photon paths), with survival in proportion to the
-            /// throughput relative to the walk's start (`walk::roulette`); `None` turns it off.
-            /// Default `Some(3)`.
+            /// integrator makes (camera, light, photon paths); `None` turns it off. Default
+            /// `Some(1)`.
             pub russian_roulette: Option<u32>,
+            /// The throughput, relative to the walk's start, below which Russian roulette plays:
+            /// a path below τ continues with probability throughput/τ and then with throughput τ;
+            /// others always continue (weight-cutoff roulette, Arvo & Kirk 1990; see
+            /// `walk::roulette`). 1 is survival in proportion to throughput (pbrt-v4, Mitsuba);
+            /// smaller values end fewer paths and give survivors smaller weights. In (0, 1].
+            /// Default 0.5, with `russian_roulette: 1` the most efficient measured
+            /// (BENCHMARKS.md, "Russian roulette").
+            pub roulette_threshold: f32,
             $( $(#[$field_meta])* pub $field: $ty, )*
             /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`;
             /// see the README's "Path classes"); `None` renders every path. Default `None`.
@@ -190,7 +206,8 @@ macro_rules! settings {
                 $name {
                     max_bounces: None,
                     min_bounces: 0,
-                    russian_roulette: Some(3),
+                    russian_roulette: Some(1),
+                    roulette_threshold: 0.5,
                     $( $field: $default, )*
                     paths: None,
                     layers: $crate::paths::Layers::Off,
@@ -215,12 +232,20 @@ macro_rules! settings {
                     .map_err($crate::config::ConfigError::Invalid)
             }
 
+            /// The walks' Russian roulette: `russian_roulette` and `roulette_threshold`.
+            pub fn roulette(&self) -> $crate::walk::RoulettePolicy {
+                $crate::walk::RoulettePolicy {
+                    start: self.russian_roulette,
+                    threshold: self.roulette_threshold,
+                }
+            }
+
             /// The checks of the shared fields (`config::check_common`).
             fn check_common(&self) -> Result<(), $crate::config::ConfigError> {
                 $crate::config::check_common(
                     self.max_bounces,
                     self.min_bounces,
-                    self.russian_roulette,
+                    self.roulette(),
                     self.paths.as_deref(),
                     &self.layers,
                 )
@@ -306,7 +331,8 @@ mod tests {
             panic!("{c:?}")
         };
         assert_eq!(p.max_bounces, Some(8));
-        assert_eq!(p.russian_roulette, Some(3));
+        assert_eq!(p.russian_roulette, Some(1));
+        assert_eq!(p.roulette_threshold, 0.5);
         assert_eq!(p.strategy, Strategy::Mis);
         assert!(p.shadows);
         assert_eq!(IntegratorConfig::from_ron(&c.to_ron()).unwrap(), c);
@@ -319,7 +345,7 @@ mod tests {
         let l = IntegratorConfig::from_ron("Light(max_bounces: 2)").unwrap();
         assert_eq!(
             l.to_ron(),
-            "Light(max_bounces: 2, min_bounces: 0, russian_roulette: 3, paths: None, layers: Off)"
+            "Light(max_bounces: 2, min_bounces: 0, russian_roulette: 1, roulette_threshold: 0.5, paths: None, layers: Off)"
         );
         assert_eq!(IntegratorConfig::from_ron(&l.to_ron()).unwrap(), l);
         for text in [
@@ -350,6 +376,15 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("Russian roulette"), "{e}");
+        for tau in ["0", "-0.5", "1.5", "inf", "NaN"] {
+            let e = IntegratorConfig::from_ron(&format!("Path(roulette_threshold: {tau})"))
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("roulette_threshold must be in (0, 1]"),
+                "{tau}: {e}"
+            );
+        }
         let e = IntegratorConfig::from_ron("Path(max_bounces: 2, min_bounces: 3)")
             .unwrap_err()
             .to_string();

@@ -72,6 +72,7 @@ pub use radiosity::{RadiosityConfig, RadiosityStats, Solver};
 pub use render::{Counters, PixelLimit, PixelVariance, RenderOutput, RenderStats, Technique};
 pub use sink::Sink;
 pub use vcm::{Heuristic, Variant as VcmVariant, Vcm, VcmConfig};
+pub use walk::RoulettePolicy;
 
 use lightlab_core::{NoProgress, Progress};
 use lightlab_samplers::SamplerConfig;

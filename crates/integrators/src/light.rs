@@ -75,7 +75,7 @@ impl LightTracer {
         let walk = Walk {
             mode: TransportMode::Importance,
             max_depth: cfg.max_bounces.unwrap_or(u32::MAX),
-            russian_roulette: cfg.russian_roulette,
+            roulette: cfg.roulette(),
             directions: Directions::Bsdf,
         };
         let mut visitor = LightPath {

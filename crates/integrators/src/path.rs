@@ -114,7 +114,7 @@ impl PathTracer {
             mode: TransportMode::Radiance,
             // The vertex after the last bounce is visited for its emission.
             max_depth: max_bounces.saturating_add(1),
-            russian_roulette: cfg.russian_roulette,
+            roulette: cfg.roulette(),
             directions: if cfg.strategy == Strategy::Uniform {
                 Directions::Uniform
             } else {

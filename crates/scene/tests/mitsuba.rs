@@ -383,12 +383,12 @@ fn integrators_map_max_depth_to_bounces() {
     assert_eq!(
         integ(r#"<integrator type="path"><integer name="max_depth" value="6"/></integrator>"#)
             .unwrap(),
-        "Path(max_bounces: Some(5), russian_roulette: Some(5))"
+        "Path(max_bounces: Some(5), russian_roulette: Some(5), roulette_threshold: 1.0)"
     );
     assert_eq!(
         integ(r#"<integrator type="volpath"><integer name="rr_depth" value="2"/></integrator>"#)
             .unwrap(),
-        "Path(max_bounces: None, russian_roulette: Some(2))"
+        "Path(max_bounces: None, russian_roulette: Some(2), roulette_threshold: 1.0)"
     );
     assert_eq!(
         integ(r#"<integrator type="direct"/>"#).unwrap(),

@@ -175,7 +175,7 @@ impl Bdpt {
         Walk {
             mode,
             max_depth,
-            russian_roulette: self.config.russian_roulette,
+            roulette: self.config.roulette(),
             directions: Directions::Bsdf,
         }
     }

@@ -13,7 +13,9 @@ use crate::nee::{Competition, emission_found, environment_found, sample_direct};
 use crate::paths::PathClass;
 use crate::render::{Counters, Technique};
 use crate::sink::Sink;
-use crate::walk::{Arrival, Directions, Lobes, PathVertex, Visitor, Walk, from_camera};
+use crate::walk::{
+    Arrival, Directions, Lobes, PathVertex, RoulettePolicy, Visitor, Walk, from_camera,
+};
 use glam::Vec2;
 use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_materials::LobeClass;
@@ -27,8 +29,8 @@ pub struct CameraWalk {
     pub max_bounces: u32,
     /// Fewest scattering vertices of a contribution.
     pub min_bounces: u32,
-    /// Russian roulette from this many camera vertices on; `None`: never.
-    pub russian_roulette: Option<u32>,
+    /// The camera paths' Russian roulette.
+    pub roulette: RoulettePolicy,
     /// Continue through glossy surfaces instead of gathering there.
     pub trace_glossy: bool,
     /// Next-event estimation at glossy vertices and at the visible point.
@@ -164,7 +166,7 @@ pub fn walk<S: Sampler, T: Sampler>(
     let walk = Walk {
         mode: TransportMode::Radiance,
         max_depth: cfg.max_bounces.saturating_add(1),
-        russian_roulette: cfg.russian_roulette,
+        roulette: cfg.roulette,
         directions: Directions::Bsdf,
     };
     let mut visitor = ToVisiblePoint {

@@ -45,7 +45,9 @@ use crate::paths::{PathClass, Router};
 use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::shutter::pass_time;
 use crate::sink::Sink;
-use crate::walk::{Arrival, Directions, Lobes, PathVertex, Visitor, Walk, continue_walk};
+use crate::walk::{
+    Arrival, Directions, Lobes, PathVertex, RoulettePolicy, Visitor, Walk, continue_walk,
+};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_samplers::{Independent, Sampler};
@@ -73,7 +75,7 @@ impl PhotonMapper {
         CameraWalk {
             max_bounces: c.max_bounces.unwrap_or(u32::MAX),
             min_bounces: c.min_bounces,
-            russian_roulette: c.russian_roulette,
+            roulette: c.roulette(),
             trace_glossy: c.trace_glossy,
             direct: c.direct,
         }
@@ -135,7 +137,7 @@ impl PhotonMapper {
         let walk = Walk {
             mode: TransportMode::Radiance,
             max_depth: max,
-            russian_roulette: None,
+            roulette: RoulettePolicy::OFF,
             directions: Directions::Bsdf,
         };
         let mut from = vp.vertex;
@@ -223,7 +225,7 @@ impl PhotonMapper {
         let c = &self.config;
         let tracing = |keep| PhotonTracing {
             max_bounces: c.max_bounces.unwrap_or(u32::MAX),
-            russian_roulette: c.russian_roulette,
+            roulette: c.roulette(),
             keep,
         };
         let global = (c.indirect != Indirect::Off).then(|| {

@@ -130,13 +130,13 @@ impl Progressive {
         let walk = CameraWalk {
             max_bounces: max,
             min_bounces: c.min_bounces,
-            russian_roulette: c.russian_roulette,
+            roulette: c.roulette(),
             trace_glossy: c.trace_glossy,
             direct: true,
         };
         let tracing = PhotonTracing {
             max_bounces: max,
-            russian_roulette: c.russian_roulette,
+            roulette: c.roulette(),
             keep: Keep::All,
         };
         let r1 = c.radius.resolve(scene.radius);

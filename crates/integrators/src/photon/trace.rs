@@ -13,7 +13,9 @@
 
 use crate::paths::PathClass;
 use crate::render::{Counters, Technique};
-use crate::walk::{self, Arrival, Directions, Lobes, PathVertex, Visitor, Walk, from_light};
+use crate::walk::{
+    self, Arrival, Directions, Lobes, PathVertex, RoulettePolicy, Visitor, Walk, from_light,
+};
 use glam::Vec3;
 use lightlab_core::{Ray, Rgb, TransportMode};
 use lightlab_materials::LobeClass;
@@ -97,8 +99,8 @@ pub enum Keep {
 pub struct PhotonTracing {
     /// Largest k stored.
     pub max_bounces: u32,
-    /// Russian roulette from this many scattering vertices on.
-    pub russian_roulette: Option<u32>,
+    /// The photon paths' Russian roulette.
+    pub roulette: RoulettePolicy,
     /// Which photons are stored.
     pub keep: Keep,
 }
@@ -216,7 +218,7 @@ fn trace_one(
     let walk = Walk {
         mode: TransportMode::Importance,
         max_depth: how.max_bounces,
-        russian_roulette: how.russian_roulette,
+        roulette: how.roulette,
         directions: Directions::Bsdf,
     };
     let mut deposit = Deposit {

@@ -219,7 +219,7 @@ impl Vcm {
         Walk {
             mode,
             max_depth,
-            russian_roulette: self.config.russian_roulette,
+            roulette: self.config.roulette(),
             directions: Directions::Bsdf,
         }
     }

@@ -34,6 +34,7 @@ use lightlab_materials::{BsdfSample, LobeClass, SurfaceBsdf};
 use lightlab_samplers::Sampler;
 use lightlab_scene::Scene;
 use roulette::Roulette;
+pub use roulette::RoulettePolicy;
 
 /// How a walk continues.
 #[derive(Clone, Copy, Debug)]
@@ -43,8 +44,8 @@ pub(crate) struct Walk {
     pub mode: TransportMode,
     /// Depth of the last vertex the walk makes.
     pub max_depth: u32,
-    /// Russian roulette from this depth on; `None`: never.
-    pub russian_roulette: Option<u32>,
+    /// When the walk plays Russian roulette, and how hard.
+    pub roulette: RoulettePolicy,
     pub directions: Directions,
 }
 
@@ -140,7 +141,7 @@ pub(crate) fn random_walk<S: Sampler, V: Visitor>(
         delta: true,
         class: from.class,
     };
-    let roulette = Roulette::new(walk.russian_roulette, walk.mode, beta);
+    let roulette = Roulette::new(walk.roulette, walk.mode, beta);
     trace(
         scene, walk, *from, ray, beta, arrival, roulette, sampler, visitor, counters,
     );
@@ -210,7 +211,7 @@ pub(crate) fn continue_walk<S: Sampler, V: Visitor>(
         return;
     }
     let mut beta = v.beta;
-    let mut roulette = Roulette::new(walk.russian_roulette, walk.mode, beta);
+    let mut roulette = Roulette::new(walk.roulette, walk.mode, beta);
     if let Some((ray, arrival)) = scatter(
         walk,
         v,
@@ -387,7 +388,15 @@ mod tests {
         }
     }
 
-    fn walk(light: bool, max_depth: u32, russian_roulette: Option<u32>) -> Walk {
+    /// Roulette from the first vertex on with threshold `threshold`.
+    fn every_vertex(threshold: f32) -> RoulettePolicy {
+        RoulettePolicy {
+            start: Some(0),
+            threshold,
+        }
+    }
+
+    fn walk(light: bool, max_depth: u32, roulette: RoulettePolicy) -> Walk {
         Walk {
             mode: if light {
                 TransportMode::Importance
@@ -395,7 +404,7 @@ mod tests {
                 TransportMode::Radiance
             },
             max_depth,
-            russian_roulette,
+            roulette,
             directions: Directions::Bsdf,
         }
     }
@@ -435,7 +444,12 @@ mod tests {
         let scene = furnace(0.8);
         for light in [false, true] {
             for max_depth in [0, 1, 4] {
-                let (depths, counters) = walks(&scene, walk(light, max_depth, None), 200, light);
+                let (depths, counters) = walks(
+                    &scene,
+                    walk(light, max_depth, RoulettePolicy::OFF),
+                    200,
+                    light,
+                );
                 let full: Vec<u32> = (1..=max_depth).collect();
                 let escaped = depths.iter().filter(|d| d.is_empty()).count() as u64;
                 for d in &depths {
@@ -461,7 +475,7 @@ mod tests {
     fn a_black_weight_ends_the_walk() {
         let scene = furnace(0.0);
         for light in [false, true] {
-            let (depths, counters) = walks(&scene, walk(light, 8, Some(0)), 100, light);
+            let (depths, counters) = walks(&scene, walk(light, 8, every_vertex(1.0)), 100, light);
             assert!(
                 depths.iter().all(|d| d == &[1] || (light && d.is_empty())),
                 "light side {light}"
@@ -473,26 +487,35 @@ mod tests {
     /// With roulette at every vertex in a furnace of albedo ρ = 1/2, each scatter leaves β at
     /// ρ times its start and survives with q = ρ (β/q is the start again), on the camera and the
     /// light side alike: the number of vertices is geometric with mean 1/(1 − ρ) = 2 and
-    /// variance ρ/(1 − ρ)² = 2. z-test of the mean at 4.4σ (false-failure rate 1e-5 per side).
+    /// variance ρ/(1 − ρ)² = 2. With threshold τ = 1/2 the first scatter (score 1/2 = τ) always
+    /// survives and every later one (score 1/4) with q = 1/2, restoring score τ: two vertices plus
+    /// a geometric count of mean 1 and variance 2. z-test of the mean at 4.4σ (false-failure rate
+    /// 1e-5 per side and case).
     #[test]
     fn roulette_ends_walks_at_the_same_rate_on_both_sides() {
         let scene = furnace(0.5);
         let n = 20_000;
-        for light in [false, true] {
-            let (depths, _) = walks(&scene, walk(light, u32::MAX, Some(0)), n, light);
-            let lengths: Vec<f64> = depths
-                .iter()
-                .filter(|d| !d.is_empty())
-                .map(|d| d.len() as f64)
-                .collect();
-            let m = lengths.len() as f64;
-            assert!(
-                m > 0.4 * n as f64,
-                "light side {light}: {m} walks entered the sphere"
-            );
-            let mean = lengths.iter().sum::<f64>() / m;
-            let z = (mean - 2.0) / (2.0 / m).sqrt();
-            assert!(z.abs() < 4.4, "light side {light}: mean {mean}, z = {z}");
+        for (threshold, want) in [(1.0, 2.0), (0.5, 3.0)] {
+            for light in [false, true] {
+                let walk = walk(light, u32::MAX, every_vertex(threshold));
+                let (depths, _) = walks(&scene, walk, n, light);
+                let lengths: Vec<f64> = depths
+                    .iter()
+                    .filter(|d| !d.is_empty())
+                    .map(|d| d.len() as f64)
+                    .collect();
+                let m = lengths.len() as f64;
+                assert!(
+                    m > 0.4 * n as f64,
+                    "light side {light}: {m} walks entered the sphere"
+                );
+                let mean = lengths.iter().sum::<f64>() / m;
+                let z = (mean - want) / (2.0 / m).sqrt();
+                assert!(
+                    z.abs() < 4.4,
+                    "τ = {threshold}, light side {light}: mean {mean} (want {want}), z = {z}"
+                );
+            }
         }
     }
 }

@@ -36,7 +36,7 @@ pub struct Imported {
     /// The sensor's `sample_count`, if the file has a sampler.
     pub spp: Option<u32>,
     /// The file's `<integrator>` as a Lightlab integrator in RON (e.g. `Path(max_bounces:
-    /// Some(5), russian_roulette: Some(5))`), if it has one; an error for one Lightlab does not
+    /// Some(5), russian_roulette: Some(5), roulette_threshold: 1.0)`), if it has one; an error for one Lightlab does not
     /// import (fatal only when no integrator is chosen on the command line).
     pub integrator: Option<Result<String, SceneError>>,
     /// What the import approximates, one sentence each, with the file and line.
@@ -302,7 +302,11 @@ fn integrator_ron(el: &Element) -> Result<String, SceneError> {
                 )));
             }
         };
-        Ok(format!("max_bounces: {max}, russian_roulette: Some({rr})"))
+        // Mitsuba plays roulette on every path from rr_depth on, survival in proportion to
+        // throughput (capped at 0.95 there; not here): Lightlab's threshold 1.
+        Ok(format!(
+            "max_bounces: {max}, russian_roulette: Some({rr}), roulette_threshold: 1.0"
+        ))
     };
     let ron = match o.ty {
         // Without media, Mitsuba's volumetric path tracers are its path tracer.
