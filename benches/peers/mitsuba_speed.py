@@ -327,7 +327,7 @@ def main():
     mitsuba_version = next((r["raw"]["mitsuba_version"] for r in rows if "mitsuba_version" in r["raw"]), None)
     lines = [
         f"Mitsuba {mitsuba_version} (`path`, max_depth −1, rr_depth 5) against Lightlab "
-        f"{git_state()} ({', '.join(integrators)}; russian_roulette 3 unless set), {args.resolution}², "
+        f"{git_state()} ({', '.join(integrators)}; defaults russian_roulette 1, roulette_threshold 0.5 unless set), {args.resolution}², "
         f"{args.spp} spp, {args.trials} trial(s) each (seeds {seeds[0]}–{seeds[-1]}; times are means); "
         f"{started}, {os.cpu_count()} × {cpu_model()}, load average before {load_before[0]:.2f}. "
         f"CPU s: all threads, user + sys; Mitsuba's renders without scene loading or the 1-spp warm-up "

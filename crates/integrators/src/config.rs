@@ -190,7 +190,7 @@ macro_rules! settings {
             /// `walk::roulette`). 1 is survival in proportion to throughput (pbrt-v4, Mitsuba);
             /// smaller values end fewer paths and give survivors smaller weights. In (0, 1].
             /// Default 0.5, with `russian_roulette: 1` the most efficient measured
-            /// (BENCHMARKS.md, "Russian roulette").
+            /// (BENCHMARKS.md, "Russian roulette: start and threshold").
             pub roulette_threshold: f32,
             $( $(#[$field_meta])* pub $field: $ty, )*
             /// Render only the contributions of paths this expression matches (e.g. `"LS+DE"`;

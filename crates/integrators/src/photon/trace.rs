@@ -213,8 +213,9 @@ fn trace_one(
     counters: &mut Counters,
 ) {
     let mut sampler = photon_sampler(seed, index);
-    // Survival in proportion to the flux relative to the path's start keeps photon powers
-    // roughly equal (Jensen 2001, §5.2); the walk's roulette scores exactly that.
+    // Roulette on the flux relative to the path's start keeps photon powers roughly equal
+    // (Jensen 2001, §5.2): with threshold τ a surviving photon carries at least τ of its path's
+    // starting flux (τ = 1: exactly it, Jensen's rule).
     let walk = Walk {
         mode: TransportMode::Importance,
         max_depth: how.max_bounces,
