@@ -38,8 +38,12 @@ pub(crate) fn sample_direct(
 ) -> Option<DirectSample> {
     let (li_index, pmf) = scene.sample_light(u_light)?;
     let ls = scene.lights[li_index as usize].sample_li(scene.shapes(), v.p, u_point)?;
+    // A point behind a one-sided light sends nothing: no BSDF evaluation for it.
+    if ls.li.is_black() {
+        return None;
+    }
     let e = sb.eval(wo, ls.wi, TransportMode::Radiance);
-    if ls.li.is_black() || e.f.is_black() {
+    if e.f.is_black() {
         return None;
     }
     counters.rays += shadows as u64;
