@@ -22,23 +22,7 @@ impl Bdpt {
         if matches!(heuristic, Mis::Only { .. }) {
             return 1.0;
         }
-        // The vertices the strategy used, without copying the subpaths: t = 1 samples the lens
-        // point (for s = t = 1 too, whose light vertex is the subpath's origin), which is then
-        // the only camera vertex; s = 1 with t ≥ 2 samples a point on a light, the only light
-        // vertex.
-        let (lens, light_point);
-        let cv: &[PathVertex] = if t == 1 {
-            lens = [sampled.expect("t = 1 samples the camera vertex")];
-            &lens
-        } else {
-            &camera[..t]
-        };
-        let lv: &[PathVertex] = if s == 1 && t > 1 {
-            light_point = [sampled.expect("s = 1 samples the light vertex")];
-            &light_point
-        } else {
-            &light[..s]
-        };
+        let (lv, cv) = used_vertices(light, camera, &sampled, s, t);
         let rev = reverse_densities(scene, lv, cv, s, t);
         // The connection changes its end vertices and their predecessors: the ends are never delta
         // for the connection itself, and all four take the reverse densities it implies.
@@ -87,6 +71,28 @@ impl Bdpt {
         }
         1.0 / (1.0 + sum)
     }
+}
+
+/// The light and camera vertices strategy (s, t) used, without copying the subpaths: t = 1
+/// samples the lens point (for s = t = 1 too, whose light vertex is the subpath's origin), which
+/// is then the only camera vertex; s = 1 with t ≥ 2 samples a point on a light, the only light
+/// vertex. `sampled` is that endpoint.
+pub(crate) fn used_vertices<'a>(
+    light: &'a [PathVertex],
+    camera: &'a [PathVertex],
+    sampled: &'a Option<PathVertex>,
+    s: usize,
+    t: usize,
+) -> (&'a [PathVertex], &'a [PathVertex]) {
+    let endpoint =
+        || std::slice::from_ref(sampled.as_ref().expect("the strategy sampled an endpoint"));
+    let camera = if t == 1 { endpoint() } else { &camera[..t] };
+    let light = if s == 1 && t > 1 {
+        endpoint()
+    } else {
+        &light[..s]
+    };
+    (light, camera)
 }
 
 /// The densities with which the other side of connection (s, t) generates its end vertices and

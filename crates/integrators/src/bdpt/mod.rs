@@ -43,7 +43,7 @@ pub use connect::Contribution;
 pub(crate) use connect::{connection, joined_class};
 #[cfg(test)]
 pub(crate) use mis::PathDensities;
-pub(crate) use mis::{Reverse, reverse_densities};
+pub(crate) use mis::{Reverse, reverse_densities, used_vertices};
 pub(crate) use subpaths::{camera_subpath, light_subpath};
 
 use crate::config::{ConfigError, Validate, invalid, settings};

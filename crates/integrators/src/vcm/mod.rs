@@ -41,7 +41,9 @@ mod tests;
 
 pub use mis::Heuristic;
 
-use crate::bdpt::{Reverse, camera_subpath, connection, joined_class, reverse_densities};
+use crate::bdpt::{
+    Reverse, camera_subpath, connection, joined_class, reverse_densities, used_vertices,
+};
 use crate::config::{ConfigError, Validate, invalid, settings};
 use crate::film::Film;
 use crate::passes::{
@@ -705,19 +707,7 @@ impl Vcm {
             v.light()
                 .is_some_and(|l| scene.lights[l as usize].is_delta())
         };
-        let (lens, light_point);
-        let camera_used: &[PathVertex] = if t == 1 {
-            lens = [sampled.expect("t = 1 samples the lens")];
-            &lens
-        } else {
-            &camera[..t]
-        };
-        let light_used: &[PathVertex] = if s == 1 && t > 1 {
-            light_point = [sampled.expect("s = 1 samples the light point")];
-            &light_point
-        } else {
-            &light[..s]
-        };
+        let (light_used, camera_used) = used_vertices(light, camera, &sampled, s, t);
         let rev: Reverse = reverse_densities(scene, light_used, camera_used, s, t);
         let light_end = (s > 0).then(|| {
             let v = &light_used[s - 1];

@@ -106,6 +106,15 @@ mod tests {
         }
     }
 
+    /// A reflection of weight 1 (no η² to divide out).
+    fn reflection() -> BsdfSample {
+        BsdfSample {
+            transmission: false,
+            eta: 1.0,
+            ..into_glass(TransportMode::Importance)
+        }
+    }
+
     /// Inside glass a radiance path keeps its full chance of survival: the η² it lost on entering
     /// is not held against it (pbrt-v4 §13.4.4). A light path (importance) is not rescaled.
     #[test]
@@ -129,11 +138,7 @@ mod tests {
     /// Roulette starts at its depth and scores β relative to the walk's start.
     #[test]
     fn roulette_starts_at_its_depth_relative_to_the_start() {
-        let s = BsdfSample {
-            transmission: false,
-            eta: 1.0,
-            ..into_glass(TransportMode::Importance)
-        };
+        let s = reflection();
         let mut r = Roulette::new(from(3), TransportMode::Importance, Rgb::splat(100.0));
         let mut beta = Rgb::splat(50.0);
         assert!(r.survives(2, &s, 0.99, &mut beta), "before the start depth");
@@ -149,11 +154,7 @@ mod tests {
     /// the estimate unbiased: E[β′] = q · β/q = β.
     #[test]
     fn a_threshold_plays_only_for_paths_below_it() {
-        let s = BsdfSample {
-            transmission: false,
-            eta: 1.0,
-            ..into_glass(TransportMode::Importance)
-        };
+        let s = reflection();
         let policy = RoulettePolicy {
             start: Some(1),
             threshold: 0.5,
