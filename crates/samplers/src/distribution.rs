@@ -111,6 +111,15 @@ impl Distribution1D {
     /// so the same number can be reused for a continuous choice).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        let (i, p) = self.sample_index(u);
+        let remapped = ((u - self.cdf.get(i)) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+        (i, p, remapped)
+    }
+
+    /// [`Distribution1D::sample`] without the remapped u, for callers that draw nothing more from
+    /// it (light selection): (index, probability).
+    #[inline]
+    pub fn sample_index(&self, u: f32) -> (usize, f32) {
         // Last index with cdf[i] <= u, skipping zero-probability items; the one item of a
         // single-item distribution (a scene's only light) without the search.
         let n = self.pmf.len;
@@ -130,9 +139,7 @@ impl Distribution1D {
             }
             i
         };
-        let p = self.pmf.get(i);
-        let remapped = ((u - self.cdf.get(i)) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
-        (i, p, remapped)
+        (i, self.pmf.get(i))
     }
 }
 
@@ -168,6 +175,7 @@ mod tests {
             let u = (k as f32 + 0.5) / n as f32;
             let (i, p, r) = d.sample(u);
             assert_eq!(p, d.pmf(i));
+            assert_eq!(d.sample_index(u), (i, p));
             assert!((0.0..1.0).contains(&r));
             counts[i] += 1;
         }

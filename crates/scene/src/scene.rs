@@ -140,7 +140,7 @@ impl Scene {
     #[inline]
     pub fn sample_light(&self, u: f32) -> Option<(u32, f32)> {
         self.light_selection.as_ref().map(|d| {
-            let (i, p, _) = d.sample(u);
+            let (i, p) = d.sample_index(u);
             (i as u32, p)
         })
     }
