@@ -7,6 +7,7 @@ use lightlab_experiments::image_io::{output_layers, write_exr, write_png};
 use lightlab_integrators::paths::Layers;
 use lightlab_integrators::{Budget, IntegratorConfig};
 use lightlab_scene::Scene;
+use lightlab_testkit::timing::try_cpu_seconds;
 use std::path::PathBuf;
 
 /// Render a scene and write OUT.exr (layers `radiance` and `variance`, linear float, plus any
@@ -211,7 +212,13 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
          the render finishes); render again, or with --seconds or fewer --spp"
             .into()
     });
+    let cpu_before = try_cpu_seconds();
     let out = pool.install(|| integrator.render(&scene, &budget, args.seed, &bar));
+    // The render's own CPU time, without start-up, scene loading and writing the images: the
+    // timed region of a peer renderer's render call (benches/peers/mitsuba_speed.py).
+    let cpu_seconds = cpu_before
+        .zip(try_cpu_seconds())
+        .map(|(before, after)| after - before);
     bar.finish();
 
     let (w, h) = (out.film.width, out.film.height);
@@ -224,6 +231,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         "scene": args.scene.display().to_string(),
         "integrator": config.to_ron(),
         "lightlab_version": env!("CARGO_PKG_VERSION"),
+        "render_cpu_seconds": cpu_seconds,
         "stats": out.stats,
     });
     write_atomic(

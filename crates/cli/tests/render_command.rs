@@ -68,6 +68,17 @@ fn render_writes_exr_png_and_stats() {
             .unwrap()
             .starts_with("Path(max_bounces: 3, ")
     );
+    // The render's own CPU time: on Linux a number of 10 ms ticks, at most what the whole
+    // process's threads can have spent in the render's wall time.
+    if cfg!(target_os = "linux") {
+        let cpu = stats["render_cpu_seconds"].as_f64().unwrap();
+        let wall = stats["stats"]["wall_seconds"].as_f64().unwrap();
+        let threads = stats["stats"]["threads"].as_f64().unwrap();
+        assert!(
+            cpu >= 0.0 && cpu <= 1.05 * threads * wall + 0.05,
+            "cpu {cpu} s, wall {wall} s"
+        );
+    }
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -6,13 +6,17 @@ use std::time::Instant;
 /// Process CPU time (user + system, all threads) in seconds, from /proc/self/stat fields 14 and 15
 /// (clock ticks of 1/100 s, so time runs of at least a few seconds).
 pub fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").expect("/proc/self/stat is readable");
-    let after_name = &stat[stat.rfind(')').expect("stat format") + 2..];
+    try_cpu_seconds().expect("/proc/self/stat is readable and has fields 14 and 15")
+}
+
+/// [`cpu_seconds`], or `None` where /proc/self/stat is missing or unreadable (not Linux).
+pub fn try_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let after_name = &stat[stat.rfind(')')? + 2..];
     let fields: Vec<&str> = after_name.split_whitespace().collect();
     // `fields[0]` is field 3 (state), so fields 14 and 15 are at 11 and 12.
-    let ticks: u64 =
-        fields[11].parse::<u64>().expect("utime") + fields[12].parse::<u64>().expect("stime");
-    ticks as f64 / 100.0
+    let ticks = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
+    Some(ticks as f64 / 100.0)
 }
 
 /// The result of `f` with the wall and CPU seconds it took.
