@@ -9,23 +9,27 @@ For each scene, Lightlab renders scenes/<scene>.ron as shipped (`lightlab render
 child process; more with --lightlab-integrator) and Mitsuba 3 renders its translation
 benches/peers/<scene>.xml (`path`, max_depth −1, rr_depth 5, box filter) in the variants scalar_rgb
 and llvm_ad_rgb, each on every --threads count, all at the same spp and resolution, --trials times
-with seeds 1, 2, … Each Mitsuba configuration runs in its own Python process (this script with
---worker), its thread count set by drjit.set_thread_count(T) before the scene loads: Dr.Jit's
-nanothread pool, which both the LLVM backend's kernels and the scalar variant's parallel render loop
-use (T − 1 workers plus the calling thread). DRJIT_LIBLLVM_PATH is set if unset.
+with seeds 1, 2, … The trials go round-robin: trial 1 of every renderer, then trial 2, …, so a
+drift of this VM's speed during the run (runs on different days moved one renderer's rate by 10 %
+against another's) falls on all of them alike. Each Mitsuba trial runs in its own Python process
+(this script with --worker), its thread count set by drjit.set_thread_count(T) before the scene
+loads: Dr.Jit's nanothread pool, which both the LLVM backend's kernels and the scalar variant's
+parallel render loop use (T − 1 workers plus the calling thread). DRJIT_LIBLLVM_PATH is set if
+unset.
 
-Timed region. Mitsuba: mi.render + drjit.eval + drjit.sync_thread of each trial, after a 1-spp
-warm-up render in the same process; not timed are Python start-up, the variant's import (for llvm:
-loading libLLVM), scene loading with Embree's BVH build, and the warm-up, which compiles the llvm
-kernel (or loads it from Dr.Jit's disk cache); the kernel does not depend on spp or seed, so the
-timed renders run it from the in-memory cache (the JSON records each render's kernels and how many
-were not cache hits). Mitsuba's tracing of the integrator into a kernel on each render (a few ms) is
-inside. Lightlab: after a 1-spp warm-up run, the whole timed child process — start-up, scene parsing
-and BVH build, the render, writing EXR/PNG/JSON — for CPU seconds (RUSAGE_CHILDREN delta, all
-threads); its wall column is the render alone (the JSON's wall_seconds), and the warm-up's CPU
-seconds, an upper bound on that fixed cost, are printed. Mitsuba's CPU seconds are RUSAGE_SELF
-deltas in its worker (all threads), its wall perf_counter. A row whose CPU/wall falls below 0.85 per
-thread is flagged ⚠: other processes held the CPUs.
+Timed region: the render alone, in both programs. Mitsuba: mi.render + drjit.eval +
+drjit.sync_thread, after a 1-spp warm-up render in the same process; not timed are Python start-up,
+the variant's import (for llvm: loading libLLVM), scene loading with Embree's BVH build, and the
+warm-up, which compiles the llvm kernel (or loads it from Dr.Jit's disk cache); the kernel does not
+depend on spp or seed, so the timed render runs it from the in-memory cache (the JSON records each
+render's kernels and how many were not cache hits). Mitsuba's tracing of the integrator into a
+kernel on each render (a few ms) is inside. Its CPU seconds are RUSAGE_SELF deltas in its worker
+(all threads), its wall perf_counter. Lightlab: a 1-spp warm-up process per configuration, then
+each trial a child process whose JSON gives the render's own CPU seconds (`render_cpu_seconds`,
+/proc/self/stat deltas around the render call, all threads, 10 ms ticks) and wall seconds; the
+process's remaining CPU time (start-up, scene parsing and BVH build, writing EXR/PNG/JSON) is
+printed apart. A row whose CPU/wall falls below 0.85 per thread is flagged ⚠: other processes held
+the CPUs.
 
 Error. One reference per scene, rendered by Lightlab with `-i 'Bdpt()' --spp R` (all cores) and
 cached in --out by scene, resolution, spp and seed, so reruns skip it (delete it after changing
@@ -265,28 +269,37 @@ def main():
                             "rel_mse_floor": float(np.mean(ref_var / (ref * ref + REL_EPSILON)))}
 
         for threads in args.threads:
-            for variant in args.variants:
-                print(f"{name}: Mitsuba {variant}, {threads} thread(s)", file=sys.stderr)
-                images = [os.path.join(out, f"mitsuba-{variant}-{threads}t-{args.spp}spp-seed{seed}.exr")
-                          for seed in seeds]
-                r = run_mitsuba(args, variant, xml, threads, seeds, images)
-                rows.append({"scene": name, "renderer": f"Mitsuba {variant}", "threads": threads,
-                             "spp": args.spp, "images": images,
-                             "wall": [t["wall_seconds"] for t in r["trials"]],
-                             "cpu": [t["cpu_seconds"] for t in r["trials"]],
-                             "busy_wall": [t["wall_seconds"] for t in r["trials"]], "raw": r})
+            mitsuba_rows = {variant: {"scene": name, "renderer": f"Mitsuba {variant}", "threads": threads,
+                                      "spp": args.spp, "images": [], "wall": [], "cpu": [], "busy_wall": [],
+                                      "raw": {"processes": []}}
+                            for variant in args.variants}
+            lightlab_rows = {}
             for integrator in integrators:
-                print(f"{name}: Lightlab {integrator}, {threads} thread(s)", file=sys.stderr)
-                stem = "lightlab-" + "".join(c if c.isalnum() else "_" for c in integrator).strip("_")
                 warm_wall, warm_cpu, warm = run_lightlab(args, ron, integrator, 1, threads, WARMUP_SEED,
                                                          os.path.join(out, "warmup.exr"))
-                row = {"scene": name, "renderer": f"Lightlab {integrator}", "threads": threads,
-                       "spp": args.spp, "images": [], "wall": [], "cpu": [], "busy_wall": [],
-                       "raw": {"integrator": warm["integrator"],
-                               "warmup": {"spp": 1, "process_wall_seconds": warm_wall, "cpu_seconds": warm_cpu,
-                                          "render_wall_seconds": warm["stats"]["wall_seconds"]},
-                               "trials": []}}
-                for seed in seeds:
+                lightlab_rows[integrator] = {
+                    "scene": name, "renderer": f"Lightlab {integrator}", "threads": threads,
+                    "spp": args.spp, "images": [], "wall": [], "cpu": [], "busy_wall": [],
+                    "raw": {"integrator": warm["integrator"],
+                            "warmup": {"spp": 1, "process_wall_seconds": warm_wall, "cpu_seconds": warm_cpu,
+                                       "render_wall_seconds": warm["stats"]["wall_seconds"]},
+                            "trials": []}}
+            # Trials round-robin over the renderers (trial k of each, then trial k + 1), so a drift of
+            # the machine's speed during the run falls on every renderer alike.
+            for seed in seeds:
+                for variant, row in mitsuba_rows.items():
+                    print(f"{name}: Mitsuba {variant}, {threads} thread(s), seed {seed}", file=sys.stderr)
+                    image = os.path.join(out, f"mitsuba-{variant}-{threads}t-{args.spp}spp-seed{seed}.exr")
+                    r = run_mitsuba(args, variant, xml, threads, [seed], [image])
+                    trial = r["trials"][0]
+                    row["images"].append(image)
+                    row["wall"].append(trial["wall_seconds"])
+                    row["cpu"].append(trial["cpu_seconds"])
+                    row["busy_wall"].append(trial["wall_seconds"])
+                    row["raw"]["processes"].append(r)
+                for integrator, row in lightlab_rows.items():
+                    print(f"{name}: Lightlab {integrator}, {threads} thread(s), seed {seed}", file=sys.stderr)
+                    stem = "lightlab-" + "".join(c if c.isalnum() else "_" for c in integrator).strip("_")
                     image = os.path.join(out, f"{stem}-{threads}t-{args.spp}spp-seed{seed}.exr")
                     wall, cpu, stats = run_lightlab(args, ron, integrator, args.spp, threads, seed, image)
                     st = stats["stats"]
@@ -302,7 +315,7 @@ def main():
                                                  "process_cpu_seconds": cpu, "cpu_seconds": render_cpu,
                                                  "lightlab_overhead_seconds": wall - st["wall_seconds"],
                                                  "stats": st})
-                rows.append(row)
+            rows += list(mitsuba_rows.values()) + list(lightlab_rows.values())
 
     for row in rows:
         ref = read_exr(references[row["scene"]]["path"])
@@ -311,7 +324,8 @@ def main():
         row["trials"] = k
         row["paths"] = ref.shape[0] * ref.shape[1] * row["spp"]
         row["wall_seconds"] = float(np.mean(row["wall"]))
-        row["cpu_seconds"] = float(np.mean(row["cpu"]))
+        # A render shorter than the 10 ms tick of Lightlab's CPU clock reads 0 s: no rates then.
+        row["cpu_seconds"] = float(np.mean(row["cpu"])) or float("nan")
         row["m_paths_per_cpu_second"] = row["paths"] / row["cpu_seconds"] / 1e6
         row["cpu_per_wall"] = row["cpu_seconds"] / row["wall_seconds"]
         # Whole timed region's CPU over its wall (for Lightlab the process's): below 0.85 per thread, the
@@ -329,15 +343,15 @@ def main():
         row["speed_ratio_to_llvm"] = (row["m_paths_per_cpu_second"] / base["m_paths_per_cpu_second"]
                                       if base else None)
 
-    mitsuba_version = next((r["raw"]["mitsuba_version"] for r in rows if "mitsuba_version" in r["raw"]), None)
+    mitsuba_version = next((p["mitsuba_version"] for r in rows for p in r["raw"].get("processes", [])), None)
     lines = [
         f"Mitsuba {mitsuba_version} (`path`, max_depth −1, rr_depth 5) against Lightlab "
         f"{git_state()} ({', '.join(integrators)}; defaults russian_roulette 1, roulette_threshold 0.5 unless set), {args.resolution}², "
         f"{args.spp} spp, {args.trials} trial(s) each (seeds {seeds[0]}–{seeds[-1]}; times are means); "
         f"{started}, {os.cpu_count()} × {cpu_model()}, load average before {load_before[0]:.2f}. "
-        f"CPU s: all threads, user + sys; Mitsuba's renders without scene loading or the 1-spp warm-up "
-        f"(llvm kernel compilation); Lightlab's render alone (`render_cpu_seconds` of its JSON, "
-        f"/proc/self/stat in 10 ms ticks), after a 1-spp warm-up process. relMSE ε = {REL_EPSILON} (± one standard error over the trials) against Lightlab "
+        f"Trials round-robin over the renderers. CPU s: all threads, user + sys, the render alone: "
+        f"Mitsuba's without scene loading or its 1-spp warm-up (llvm kernel compilation), Lightlab's "
+        f"`render_cpu_seconds` (/proc/self/stat, 10 ms ticks) after a 1-spp warm-up process. relMSE ε = {REL_EPSILON} (± one standard error over the trials) against Lightlab "
         f"Bdpt() at {args.reference_spp} spp; efficiency = 1/(relMSE × CPU s); ratios ÷ Mitsuba "
         f"llvm_ad_rgb's, same scene and threads.",
         "",
