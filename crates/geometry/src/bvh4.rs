@@ -199,6 +199,16 @@ fn packet_hits(p: &Packet, r: &PacketRay, w: &WatertightRay, t_max: f32) -> Pack
     }
     let negative = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
     let positive = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
+    let outside = negative & positive;
+    if outside.all() {
+        // The ray passes outside every triangle of the packet (most of a shadow ray's packets):
+        // no distances, no error bounds.
+        return PacketHits {
+            mask: 0,
+            t: zero,
+            b: [zero; 3],
+        };
+    }
     let det = e0 + e1 + e2;
     let sz = r.s[2];
     let (z0, z1, z2) = (p0[2] * sz, p1[2] * sz, p2[2] * sz);
@@ -221,7 +231,7 @@ fn packet_hits(p: &Packet, r: &PacketRay, w: &WatertightRay, t_max: f32) -> Pack
     let delta_t = Vec4::splat(3.0)
         * (Vec4::splat(gamma(3)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
         * inv_det.abs();
-    let rejected = (negative & positive)
+    let rejected = outside
         | det.cmpeq(zero)
         | behind_or_beyond_neg
         | behind_or_beyond_pos
