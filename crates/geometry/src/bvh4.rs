@@ -231,11 +231,8 @@ fn packet_hits(p: &Packet, r: &PacketRay, w: &WatertightRay, t_max: f32) -> Pack
     let delta_t = Vec4::splat(3.0)
         * (Vec4::splat(gamma(3)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
         * inv_det.abs();
-    let rejected = outside
-        | det.cmpeq(zero)
-        | behind_or_beyond_neg
-        | behind_or_beyond_pos
-        | t.cmple(delta_t);
+    let rejected =
+        outside | det.cmpeq(zero) | behind_or_beyond_neg | behind_or_beyond_pos | t.cmple(delta_t);
     PacketHits {
         mask: !rejected.bitmask() & 0xf,
         t,
