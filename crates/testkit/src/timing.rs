@@ -12,7 +12,7 @@ pub fn cpu_seconds() -> f64 {
 /// [`cpu_seconds`], or `None` where /proc/self/stat is missing or unreadable (not Linux).
 pub fn try_cpu_seconds() -> Option<f64> {
     let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    let after_name = &stat[stat.rfind(')')? + 2..];
+    let after_name = stat.get(stat.rfind(')')? + 2..)?;
     let fields: Vec<&str> = after_name.split_whitespace().collect();
     // `fields[0]` is field 3 (state), so fields 14 and 15 are at 11 and 12.
     let ticks = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
