@@ -101,8 +101,7 @@ pub fn reference(
                 let Some(_lock) = Lock::take(&path.with_extension("lock"))? else {
                     if !waited {
                         log(&format!(
-                            "  waiting for {}: another process is rendering this reference \
-                             (remove that lock file if the process has died)",
+                            "  waiting for {}: another process is rendering this reference",
                             path.with_extension("lock").display()
                         ));
                         waited = true;
@@ -282,27 +281,36 @@ pub fn load_foreign(
     })
 }
 
-/// A lock file held while a reference renders (created exclusively; removed when dropped).
-struct Lock(PathBuf);
+/// A lock held while a reference renders: an exclusive advisory lock (`flock`) on a file beside
+/// it. The operating system releases it when its holder exits, however it exits, so a render
+/// killed halfway leaves no lock behind that blocks the next run; the file, removed on drop,
+/// may stay but is then unlocked and simply taken. A lock taken just as its holder finished finds
+/// the reference written (callers check again after taking it), so no reference renders twice.
+struct Lock(PathBuf, std::fs::File);
 
 impl Lock {
-    /// Takes the lock at `path`; `None` if another process holds it.
+    /// Takes the lock at `path`; `None` if another process (or another handle) holds it.
     fn take(path: &Path) -> Result<Option<Lock>, String> {
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         }
-        match std::fs::OpenOptions::new()
+        let err = |e: std::io::Error| format!("{}: {e}", path.display());
+        let mut file = std::fs::OpenOptions::new()
             .write(true)
-            .create_new(true)
+            .create(true)
+            .truncate(false)
             .open(path)
-        {
-            Ok(mut f) => {
+            .map_err(err)?;
+        match file.try_lock() {
+            Ok(()) => {
                 use std::io::Write;
-                let _ = writeln!(f, "pid {}", std::process::id());
-                Ok(Some(Lock(path.to_path_buf())))
+                // Who holds it, for a user looking at the cache directory.
+                file.set_len(0).map_err(err)?;
+                let _ = writeln!(file, "pid {}", std::process::id());
+                Ok(Some(Lock(path.to_path_buf(), file)))
             }
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(None),
-            Err(e) => Err(format!("{}: {e}", path.display())),
+            Err(std::fs::TryLockError::WouldBlock) => Ok(None),
+            Err(std::fs::TryLockError::Error(e)) => Err(err(e)),
         }
     }
 }
@@ -310,5 +318,33 @@ impl Lock {
 impl Drop for Lock {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Lock;
+
+    #[test]
+    fn a_lock_excludes_others_until_dropped_and_a_left_over_file_is_taken() {
+        let dir = std::env::temp_dir().join(format!("lightlab-lock-{}", std::process::id()));
+        let path = dir.join("reference.lock");
+        let _ = std::fs::remove_dir_all(&dir);
+        // A file left by a killed render: nobody holds a lock on it, so it is taken.
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(&path, "pid 999999\n").unwrap();
+        let held = Lock::take(&path)
+            .unwrap()
+            .expect("a left-over file is taken");
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("pid {}\n", std::process::id())
+        );
+        // Held: another handle (as another process would) is refused.
+        assert!(Lock::take(&path).unwrap().is_none());
+        drop(held);
+        assert!(!path.exists(), "dropping the lock removes its file");
+        assert!(Lock::take(&path).unwrap().is_some());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
