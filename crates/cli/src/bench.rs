@@ -17,10 +17,13 @@ use std::path::{Path, PathBuf};
 
 /// Benchmark integrators: for each scene, integrator and thread count, one timed render (after a
 /// one-sample warm-up on the same threads) and its error against a cached high-sample reference.
-/// Prints a Markdown table of paths per CPU-second (a camera path for Path, a light path for
-/// Light, a camera–light subpath pair for Bdpt and Vcm), rays per second, relMSE, relMSE × spp
-/// (the variance of one sample, relative — constant in spp for an unbiased estimator, so
-/// comparable across integrators run at different spp) and efficiency 1 / (relMSE × CPU seconds).
+/// Prints a Markdown table of paths per CPU-second (a camera path for Path and the photon-mapping
+/// integrators, a light path for Light, a camera–light subpath pair for Bdpt and Vcm), photon
+/// paths per CPU-second (photon-mapping integrators and Vcm's light paths; each row's rate counts
+/// the whole render's CPU time), rays per second, relMSE, relMSE × spp (for an unbiased estimator
+/// the relative variance of one sample, constant in spp and so comparable across integrators run
+/// at different spp; for a biased one it also holds spp × bias², which grows with spp) and
+/// efficiency 1 / (relMSE × CPU seconds).
 /// CPU time is the process's user + system time over all threads (/proc/self/stat), so rates per
 /// CPU-second compare thread counts fairly. Figures are ratios within one run: compare rows,
 /// not runs on different days (BENCHMARKS.md).
@@ -29,7 +32,8 @@ pub struct BenchArgs {
     /// Scene files. Default: scenes/cornell-box.ron and scenes/caustic-sphere.ron.
     scenes: Vec<PathBuf>,
     /// An integrator and its samples per pixel as INTEGRATOR@SPP, e.g. 'Path(russian_roulette: 5)@64'
-    /// (repeatable). Default: Path()@256, Light()@256, Bdpt()@32, Vcm()@32.
+    /// (repeatable). Default: Path()@256, Light()@256, Bdpt()@32, Vcm()@32, Sppm()@64,
+    /// PhotonMap()@1.
     #[arg(short, long)]
     integrator: Vec<String>,
     /// Thread counts to run each integrator on, comma-separated.
@@ -67,6 +71,10 @@ struct Row {
     cpu_seconds: f64,
     /// `None` when the render took less CPU time than the clock resolves (10 ms).
     paths_per_cpu_second: Option<f64>,
+    /// Photon paths traced (0 for integrators without photons).
+    photon_paths: u64,
+    /// `None` without photons or when the CPU time is below the clock's resolution.
+    photon_paths_per_cpu_second: Option<f64>,
     rays_per_second: f64,
     rays_per_path: f64,
     rel_mse: f64,
@@ -90,9 +98,16 @@ fn parse_spec(s: &str) -> Result<(String, IntegratorConfig, u32), String> {
 
 pub fn run(args: BenchArgs) -> Result<(), String> {
     let specs: Vec<String> = if args.integrator.is_empty() {
-        ["Path()@256", "Light()@256", "Bdpt()@32", "Vcm()@32"]
-            .map(String::from)
-            .to_vec()
+        [
+            "Path()@256",
+            "Light()@256",
+            "Bdpt()@32",
+            "Vcm()@32",
+            "Sppm()@64",
+            "PhotonMap()@1",
+        ]
+        .map(String::from)
+        .to_vec()
     } else {
         args.integrator.clone()
     };
@@ -120,9 +135,9 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     };
     let mut rows = Vec::new();
     println!(
-        "| scene | integrator | threads | spp | wall s | CPU s | M paths / CPU-s | M rays / s | rays per path | relMSE | relMSE × spp | efficiency |"
+        "| scene | integrator | threads | spp | wall s | CPU s | M paths / CPU-s | M photon paths / CPU-s | M rays / s | rays per path | relMSE | relMSE × spp | efficiency |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for path in &scenes {
         let (scene, text) = load_scene(path, Some(args.resolution))?;
         let name = path
@@ -176,6 +191,9 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     wall_seconds: wall,
                     cpu_seconds: cpu,
                     paths_per_cpu_second: (cpu > 0.0).then(|| paths as f64 / cpu),
+                    photon_paths: out.stats.photons,
+                    photon_paths_per_cpu_second: (cpu > 0.0 && out.stats.photons > 0)
+                        .then(|| out.stats.photons as f64 / cpu),
                     rays_per_second: out.stats.rays as f64 / wall,
                     rays_per_path: out.stats.rays as f64 / paths as f64,
                     rel_mse: e.rel_mse,
@@ -184,7 +202,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                 };
                 let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map_or("—".into(), f);
                 println!(
-                    "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {:.2} | {:.2} | {:.3e} | {:.3e} | {} |",
+                    "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {:.2} | {:.2} | {:.3e} | {:.3e} | {} |",
                     row.scene,
                     label,
                     threads,
@@ -192,6 +210,10 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     wall,
                     cpu,
                     or_dash(row.paths_per_cpu_second, &|r| format!("{:.3}", r / 1e6)),
+                    or_dash(row.photon_paths_per_cpu_second, &|r| format!(
+                        "{:.3}",
+                        r / 1e6
+                    )),
                     row.rays_per_second / 1e6,
                     row.rays_per_path,
                     row.rel_mse,

@@ -25,6 +25,8 @@ fn bench_measures_every_integrator_and_thread_count() {
                 "Path()@16",
                 "-i",
                 "Light(max_bounces: 4)@8",
+                "-i",
+                "Sppm(photons_per_pass: 20000)@4",
                 "--threads",
                 "1,2",
             ])
@@ -46,12 +48,12 @@ fn bench_measures_every_integrator_and_thread_count() {
             .lines()
             .filter(|l| l.starts_with("| cornell-box |"))
             .count(),
-        4,
+        6,
         "{table}"
     );
     let rows: Vec<serde_json::Value> =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    assert_eq!(rows.len(), 4);
+    assert_eq!(rows.len(), 6);
     for pair in rows.chunks(2) {
         let (one, two) = (&pair[0], &pair[1]);
         assert_eq!(
@@ -72,6 +74,19 @@ fn bench_measures_every_integrator_and_thread_count() {
         // Null only when the render was shorter than the CPU clock's 10 ms tick.
         let rate = &one["paths_per_cpu_second"];
         assert!(rate.is_null() || rate.as_f64().unwrap() > 0.0, "{rate}");
+        // Photon paths: 20 000 per pass for Sppm, none (and no rate) for the others.
+        let photons = one["photon_paths"].as_u64().unwrap();
+        let photon_rate = &one["photon_paths_per_cpu_second"];
+        if one["integrator"].as_str().unwrap().starts_with("Sppm") {
+            assert_eq!(photons, 20_000 * spp as u64);
+            assert!(
+                photon_rate.is_null() || photon_rate.as_f64().unwrap() > 0.0,
+                "{photon_rate}"
+            );
+        } else {
+            assert_eq!(photons, 0);
+            assert!(photon_rate.is_null(), "{photon_rate}");
+        }
     }
     // The reference is now cached.
     let again = bench();
