@@ -286,7 +286,11 @@ pub fn load_foreign(
 /// killed halfway leaves no lock behind that blocks the next run; the file, removed on drop,
 /// may stay but is then unlocked and simply taken. A lock taken just as its holder finished finds
 /// the reference written (callers check again after taking it), so no reference renders twice.
-struct Lock(PathBuf, std::fs::File);
+struct Lock {
+    path: PathBuf,
+    /// Held open: closing it releases the lock.
+    _file: std::fs::File,
+}
 
 impl Lock {
     /// Takes the lock at `path`; `None` if another process (or another handle) holds it.
@@ -307,7 +311,10 @@ impl Lock {
                 // Who holds it, for a user looking at the cache directory.
                 file.set_len(0).map_err(err)?;
                 let _ = writeln!(file, "pid {}", std::process::id());
-                Ok(Some(Lock(path.to_path_buf(), file)))
+                Ok(Some(Lock {
+                    path: path.to_path_buf(),
+                    _file: file,
+                }))
             }
             Err(std::fs::TryLockError::WouldBlock) => Ok(None),
             Err(std::fs::TryLockError::Error(e)) => Err(err(e)),
@@ -317,7 +324,7 @@ impl Lock {
 
 impl Drop for Lock {
     fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.0);
+        let _ = std::fs::remove_file(&self.path);
     }
 }
 
