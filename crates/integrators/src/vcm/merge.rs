@@ -44,8 +44,8 @@ pub(super) fn merge(
         return;
     };
     grid.within(z.p, |m, _| {
-        let i = m.index as usize;
-        let y = &pass.vertices[i];
+        let (i, chunk) = (m.index as usize, &pass.chunks[m.chunk as usize]);
+        let y = &chunk.vertices[i];
         let n = y.depth + z.depth - 1;
         if n < bounces.0 || n > bounces.1 || y.ng.dot(z.ng) <= 0.0 {
             return;
@@ -60,12 +60,12 @@ pub(super) fn merge(
         visit(&Merged {
             light: y,
             // A light subpath's vertices are numbered from 0 at its origin.
-            light_path: &pass.vertices[i - y.depth as usize..=i],
+            light_path: &chunk.vertices[i - y.depth as usize..=i],
             unweighted: z.beta * f * y.beta * (shading * scale),
             // The light vertex has depth ≥ 1, so its predecessor is the vertex before it.
             weight: merge_weight(
                 techniques,
-                (y, pass.quantities[i], &pass.vertices[i - 1]),
+                (y, chunk.quantities[i], &chunk.vertices[i - 1]),
                 (z, z_q, &camera[t - 2]),
             ),
         });

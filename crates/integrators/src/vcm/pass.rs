@@ -3,8 +3,10 @@
 //! path of its pixel and — its non-delta surface vertices, indexed by a hash grid of the pass's
 //! radius — as the photons every camera path merges with. The light vertex is the photon.
 //!
-//! Determinism: light path p of pass i draws from (seed, p, i) alone, and chunks of paths are
-//! concatenated in path order, so a pass is bit-identical on any number of threads.
+//! Determinism: light path p of pass i draws from (seed, p, i) alone, and the chunks of paths
+//! are kept, and their mergeable vertices indexed, in path order, so a pass is bit-identical on
+//! any number of threads. The chunks are not concatenated: copying every vertex once more was
+//! the pass's largest serial step.
 
 use super::mis::{Quantities, Techniques};
 use crate::bdpt::light_subpath;
@@ -21,10 +23,11 @@ const LIGHT_STREAM: u64 = 0x7663_6d5f_6c69_6768;
 /// Light paths per parallel work item.
 const CHUNK: usize = 256;
 
-/// A light vertex a camera vertex can merge with: where it is, and its index in the pass.
+/// A light vertex a camera vertex can merge with: where it is, its chunk and its index there.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Merge {
     p: Vec3,
+    pub chunk: u32,
     pub index: u32,
 }
 
@@ -37,14 +40,20 @@ impl Located for Merge {
 
 /// The light subpaths of one pass.
 pub(super) struct LightPass {
+    /// Paths `c · CHUNK ..` in chunk c.
+    pub chunks: Vec<Chunk>,
+    /// The mergeable vertices (none without merging).
+    pub grid: Option<HashGrid<Merge>>,
+}
+
+/// Consecutive light paths, as one parallel work item traced them.
+pub(super) struct Chunk {
     /// Every path's vertices, path after path.
     pub vertices: Vec<PathVertex>,
     /// Their MIS quantities.
     pub quantities: Vec<Quantities>,
-    /// Path p is `vertices[starts[p]..starts[p + 1]]`.
+    /// The chunk's path p is `vertices[starts[p]..starts[p + 1]]`.
     starts: Vec<u32>,
-    /// The mergeable vertices (none without merging).
-    pub grid: Option<HashGrid<Merge>>,
 }
 
 impl LightPass {
@@ -62,21 +71,15 @@ impl LightPass {
         radius: f32,
         counters: &mut Counters,
     ) -> LightPass {
-        struct Chunk {
-            vertices: Vec<PathVertex>,
-            quantities: Vec<Quantities>,
-            lengths: Vec<u32>,
-            counters: Counters,
-        }
-        let chunks: Vec<Chunk> = (0..paths.div_ceil(CHUNK))
+        let traced: Vec<(Chunk, Vec<Merge>, Counters)> = (0..paths.div_ceil(CHUNK))
             .into_par_iter()
             .map(|c| {
                 let mut out = Chunk {
                     vertices: Vec::new(),
                     quantities: Vec::new(),
-                    lengths: Vec::new(),
-                    counters: Counters::default(),
+                    starts: vec![0],
                 };
+                let mut counters = Counters::default();
                 let mut sampler = Independent::new();
                 for p in c * CHUNK..((c + 1) * CHUNK).min(paths) {
                     sampler.start_pixel_sample(seed ^ LIGHT_STREAM, p as u64, pass as u64);
@@ -87,7 +90,7 @@ impl LightPass {
                         time,
                         &mut sampler,
                         &mut out.vertices,
-                        &mut out.counters,
+                        &mut counters,
                     );
                     let path = &out.vertices[start..];
                     let delta_light = path
@@ -95,48 +98,43 @@ impl LightPass {
                         .and_then(|v| v.light())
                         .is_some_and(|l| scene.lights[l as usize].is_delta());
                     techniques.subpath(path, true, delta_light, &mut out.quantities);
-                    out.lengths.push(path.len() as u32);
+                    out.starts.push(out.vertices.len() as u32);
                 }
-                out
+                let mergeable = if techniques.merge {
+                    out.vertices
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, v)| techniques.merges_at(v))
+                        .map(|(i, v)| Merge {
+                            p: v.p,
+                            chunk: c as u32,
+                            index: i as u32,
+                        })
+                        .collect()
+                } else {
+                    Vec::new()
+                };
+                (out, mergeable, counters)
             })
             .collect();
-        let mut pass_out = LightPass {
-            vertices: Vec::new(),
-            quantities: Vec::new(),
-            starts: vec![0],
-            grid: None,
-        };
-        for c in chunks {
-            counters.merge(&c.counters);
-            let base = pass_out.vertices.len() as u32;
-            let mut end = base;
-            for len in c.lengths {
-                end += len;
-                pass_out.starts.push(end);
-            }
-            pass_out.vertices.extend(c.vertices);
-            pass_out.quantities.extend(c.quantities);
+        let mut chunks = Vec::with_capacity(traced.len());
+        let mut mergeable = Vec::new();
+        for (chunk, merges, c) in traced {
+            counters.merge(&c);
+            chunks.push(chunk);
+            mergeable.extend(merges);
         }
-        if techniques.merge {
-            let mergeable: Vec<Merge> = pass_out
-                .vertices
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| techniques.merges_at(v))
-                .map(|(i, v)| Merge {
-                    p: v.p,
-                    index: i as u32,
-                })
-                .collect();
-            pass_out.grid = Some(HashGrid::new(&mergeable, radius));
+        LightPass {
+            chunks,
+            grid: techniques.merge.then(|| HashGrid::new(&mergeable, radius)),
         }
-        pass_out
     }
 
     /// Light path `p`: its vertices and their quantities.
     pub fn path(&self, p: usize) -> (&[PathVertex], &[Quantities]) {
-        let r = self.starts[p] as usize..self.starts[p + 1] as usize;
-        (&self.vertices[r.clone()], &self.quantities[r])
+        let c = &self.chunks[p / CHUNK];
+        let r = c.starts[p % CHUNK] as usize..c.starts[p % CHUNK + 1] as usize;
+        (&c.vertices[r.clone()], &c.quantities[r])
     }
 
     /// Vertices stored for merging.
