@@ -6,9 +6,10 @@
 
 use super::trace::Photon;
 use glam::{IVec3, Vec3};
+use rayon::prelude::*;
 
 /// Something with a place in space, to be found by a grid.
-pub trait Located: Copy {
+pub trait Located: Copy + Send + Sync {
     /// Where it is.
     fn position(&self) -> Vec3;
 }
@@ -33,11 +34,15 @@ pub struct HashGrid<T: Located = Photon> {
 }
 
 impl<T: Located> HashGrid<T> {
-    /// Builds a grid of `photons` for gathering within `radius` (> 0) of query points.
+    /// Builds a grid of `photons` for gathering within `radius` (> 0) of query points: a counting
+    /// sort by bucket, stable (a bucket keeps the input order), whose per-item steps (the bounds,
+    /// the buckets, the final copy) run in parallel and whose serial steps touch only indices.
     pub fn new(photons: &[T], radius: f32) -> HashGrid<T> {
+        // The minimum is exact, so any grouping of the reduction gives the same origin.
         let origin = photons
-            .iter()
-            .fold(Vec3::splat(f32::INFINITY), |m, p| m.min(p.position()));
+            .par_iter()
+            .map(|p| p.position())
+            .reduce(|| Vec3::splat(f32::INFINITY), Vec3::min);
         let mut grid = HashGrid {
             photons: Vec::new(),
             cell_ends: vec![0; photons.len().max(1)],
@@ -45,9 +50,8 @@ impl<T: Located> HashGrid<T> {
             inv_cell: 1.0 / (2.0 * radius),
             radius_sq: radius * radius,
         };
-        // Counting sort by bucket.
         let keys: Vec<u32> = photons
-            .iter()
+            .par_iter()
             .map(|p| grid.bucket(grid.cell_of(p.position())) as u32)
             .collect();
         for &k in &keys {
@@ -59,12 +63,12 @@ impl<T: Located> HashGrid<T> {
             *e = sum;
         }
         let mut next = grid.cell_ends.clone();
-        let mut sorted = vec![photons.first().copied(); photons.len()];
-        for (p, &k) in photons.iter().zip(&keys).rev() {
+        let mut order = vec![0u32; photons.len()];
+        for (i, &k) in keys.iter().enumerate().rev() {
             next[k as usize] -= 1;
-            sorted[next[k as usize] as usize] = Some(*p);
+            order[next[k as usize] as usize] = i as u32;
         }
-        grid.photons = sorted.into_iter().map(|p| p.expect("filled")).collect();
+        grid.photons = order.par_iter().map(|&i| photons[i as usize]).collect();
         grid
     }
 
