@@ -15,15 +15,16 @@ use lightlab_testkit::timing::{peak_rss_bytes, timed};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-/// Benchmark integrators: for each scene, integrator and thread count, one timed render (after a
-/// one-sample warm-up on the same threads) and its error against a cached high-sample reference.
+/// Benchmark integrators: for each scene, integrator and thread count, timed renders with
+/// independent seeds (--trials, after a one-sample warm-up on the same threads) and their error
+/// against a cached high-sample reference.
 /// Prints a Markdown table of paths per CPU-second (a camera path for Path and the photon-mapping
 /// integrators, a light path for Light, a camera–light subpath pair for Bdpt and Vcm), photon
 /// paths per CPU-second (photon-mapping integrators and Vcm's light paths; each row's rate counts
 /// the whole render's CPU time), rays per second, relMSE, relMSE × spp (for an unbiased estimator
 /// the relative variance of one sample, constant in spp and so comparable across integrators run
 /// at different spp; for a biased one it also holds spp × bias², which grows with spp) and
-/// efficiency 1 / (relMSE × CPU seconds).
+/// efficiency 1 / (relMSE × CPU seconds), both means over the trials.
 /// CPU time is the process's user + system time over all threads (/proc/self/stat), so rates per
 /// CPU-second compare thread counts fairly. Figures are ratios within one run: compare rows,
 /// not runs on different days (BENCHMARKS.md).
@@ -51,33 +52,44 @@ pub struct BenchArgs {
     /// Directory of cached references, shared with `lightlab run`.
     #[arg(long, default_value = "results/references")]
     references: PathBuf,
-    /// Seed of every timed render.
+    /// Seed of the first trial; trial k renders with seed SEED + k.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Timed renders per row, with independent seeds: times and relMSE are their means, relMSE
+    /// with its standard error over the trials (from 2 trials on).
+    #[arg(long, default_value_t = 3)]
+    trials: u32,
     /// Also write the rows as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
 }
 
-/// One measured render.
+/// One scene, integrator and thread count, measured over `trials` renders.
 #[derive(Serialize)]
 struct Row {
     scene: String,
     integrator: String,
     threads: usize,
     spp: u32,
+    trials: u32,
+    /// Camera (light, subpath-pair) paths of one trial.
     paths: u64,
+    /// Means over the trials.
     wall_seconds: f64,
     cpu_seconds: f64,
+    cpu_seconds_per_trial: Vec<f64>,
+    rel_mse_per_trial: Vec<f64>,
     /// `None` when the render took less CPU time than the clock resolves (10 ms).
     paths_per_cpu_second: Option<f64>,
-    /// Photon paths traced (0 for integrators without photons).
+    /// Photon paths traced in one trial (0 for integrators without photons).
     photon_paths: u64,
     /// `None` without photons or when the CPU time is below the clock's resolution.
     photon_paths_per_cpu_second: Option<f64>,
     rays_per_second: f64,
     rays_per_path: f64,
+    /// Mean over the trials, and its standard error (`None` for one trial).
     rel_mse: f64,
+    rel_mse_se: Option<f64>,
     rel_mse_times_spp: f64,
     efficiency: Option<f64>,
 }
@@ -115,6 +127,9 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         .iter()
         .map(|s| parse_spec(s))
         .collect::<Result<Vec<_>, _>>()?;
+    if args.trials == 0 {
+        return Err("--trials must be ≥ 1".into());
+    }
     if args.threads.contains(&0) {
         return Err("--threads: every thread count must be ≥ 1".into());
     }
@@ -173,36 +188,58 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     .build()
                     .map_err(|e| format!("cannot start worker threads: {e}"))?;
                 pool.install(|| integrator.render(&scene, &Budget::Samples(1), 0, &NoProgress));
-                let (out, wall, cpu) = timed(|| {
-                    pool.install(|| {
-                        integrator.render(&scene, &Budget::Samples(*spp), args.seed, &NoProgress)
-                    })
+                let (mut walls, mut cpus, mut rel_mses) = (Vec::new(), Vec::new(), Vec::new());
+                let (mut paths, mut photons, mut rays) = (0, 0, 0);
+                for trial in 0..args.trials as u64 {
+                    let seed = args.seed + trial;
+                    let (out, wall, cpu) = timed(|| {
+                        pool.install(|| {
+                            integrator.render(&scene, &Budget::Samples(*spp), seed, &NoProgress)
+                        })
+                    });
+                    let layers = output_layers(&out);
+                    let e = errors(&layers[0].pixels, &r.image)
+                        .ok_or("image and reference sizes differ")?;
+                    walls.push(wall);
+                    cpus.push(cpu);
+                    rel_mses.push(e.rel_mse);
+                    (paths, photons, rays) =
+                        (out.stats.samples, out.stats.photons, rays + out.stats.rays);
+                }
+                let n = args.trials as f64;
+                let (wall, cpu) = (walls.iter().sum::<f64>() / n, cpus.iter().sum::<f64>() / n);
+                let rel_mse = rel_mses.iter().sum::<f64>() / n;
+                // The trials are independent renders: the standard error of their mean.
+                let rel_mse_se = (args.trials > 1).then(|| {
+                    let ss = rel_mses.iter().map(|x| (x - rel_mse).powi(2)).sum::<f64>();
+                    (ss / (n - 1.0) / n).sqrt()
                 });
-                let layers = output_layers(&out);
-                let e = errors(&layers[0].pixels, &r.image)
-                    .ok_or("image and reference sizes differ")?;
-                let paths = out.stats.samples;
+                // Rates are totals over totals (a ratio of means, not a mean of ratios).
                 let row = Row {
                     scene: name.clone(),
                     integrator: config.to_ron(),
                     threads,
                     spp: *spp,
+                    trials: args.trials,
                     paths,
                     wall_seconds: wall,
                     cpu_seconds: cpu,
+                    cpu_seconds_per_trial: cpus,
+                    rel_mse_per_trial: rel_mses,
                     paths_per_cpu_second: (cpu > 0.0).then(|| paths as f64 / cpu),
-                    photon_paths: out.stats.photons,
-                    photon_paths_per_cpu_second: (cpu > 0.0 && out.stats.photons > 0)
-                        .then(|| out.stats.photons as f64 / cpu),
-                    rays_per_second: out.stats.rays as f64 / wall,
-                    rays_per_path: out.stats.rays as f64 / paths as f64,
-                    rel_mse: e.rel_mse,
-                    rel_mse_times_spp: e.rel_mse * *spp as f64,
-                    efficiency: (cpu > 0.0).then(|| 1.0 / (e.rel_mse * cpu)),
+                    photon_paths: photons,
+                    photon_paths_per_cpu_second: (cpu > 0.0 && photons > 0)
+                        .then(|| photons as f64 / cpu),
+                    rays_per_second: rays as f64 / (wall * n),
+                    rays_per_path: rays as f64 / (paths as f64 * n),
+                    rel_mse,
+                    rel_mse_se,
+                    rel_mse_times_spp: rel_mse * *spp as f64,
+                    efficiency: (cpu > 0.0).then(|| 1.0 / (rel_mse * cpu)),
                 };
                 let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map_or("—".into(), f);
                 println!(
-                    "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {:.2} | {:.2} | {:.3e} | {:.3e} | {} |",
+                    "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {:.2} | {:.2} | {} | {:.3e} | {} |",
                     row.scene,
                     label,
                     threads,
@@ -216,7 +253,10 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     )),
                     row.rays_per_second / 1e6,
                     row.rays_per_path,
-                    row.rel_mse,
+                    match row.rel_mse_se {
+                        Some(se) => format!("{:.3e} ± {se:.1e}", row.rel_mse),
+                        None => format!("{:.3e}", row.rel_mse),
+                    },
                     row.rel_mse_times_spp,
                     or_dash(row.efficiency, &|e| format!("{e:.1}"))
                 );
@@ -225,9 +265,14 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         }
     }
     println!(
-        "\nrelMSE = mean of ((x − r)² − v_r) / (r² + {REL_EPSILON}) over pixels and channels, r the \
-         reference ({} at {} spp, {}×{}) and v_r its variance of the mean; — where a render took \
-         less CPU time than the clock resolves (10 ms: raise its spp); peak resident memory {:.1} MB",
+        "\nEach row: the mean of {} timed renders with seeds {}…{} (± one standard error of the mean \
+         relMSE over them); rates are total paths or rays over total CPU or wall seconds. relMSE = \
+         mean of ((x − r)² − v_r) / (r² + {REL_EPSILON}) over pixels and channels, r the reference \
+         ({} at {} spp, {}×{}) and v_r its variance of the mean; — where a render took less CPU \
+         time than the clock resolves (10 ms: raise its spp); peak resident memory {:.1} MB",
+        args.trials,
+        args.seed,
+        args.seed + args.trials as u64 - 1,
         args.reference,
         args.reference_spp,
         args.resolution.0,

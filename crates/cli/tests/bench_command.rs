@@ -20,6 +20,7 @@ fn bench_measures_every_integrator_and_thread_count() {
     let bench = || {
         lightlab()
             .args(["bench", "--resolution", "16x16", "--reference-spp", "64"])
+            .args(["--trials", "2"])
             .args([
                 "-i",
                 "Path()@16",
@@ -64,8 +65,23 @@ fn bench_measures_every_integrator_and_thread_count() {
         assert_eq!(one["paths"].as_f64().unwrap(), 16.0 * 16.0 * spp);
         let rel = one["rel_mse"].as_f64().unwrap();
         assert!(rel > 0.0 && rel < 1.0, "relMSE {rel}");
-        // Same seed, same image on any thread count, so the same error.
+        // Same seeds, same images on any thread count, so the same errors.
+        assert_eq!(one["rel_mse_per_trial"], two["rel_mse_per_trial"]);
         assert_eq!(one["rel_mse"], two["rel_mse"]);
+        // Two trials of independent seeds: their mean, and the standard error |x₁ − x₂| / 2.
+        let trials: Vec<f64> = one["rel_mse_per_trial"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        assert_eq!(trials.len(), 2);
+        assert_ne!(trials[0], trials[1], "the trials used the same seed");
+        assert!((rel - (trials[0] + trials[1]) / 2.0).abs() <= 1e-15 * rel);
+        let se = one["rel_mse_se"].as_f64().unwrap();
+        let expected = (trials[0] - trials[1]).abs() / 2.0;
+        assert!((se - expected).abs() <= 1e-12 * expected, "{se} against {expected}");
+        assert_eq!(one["cpu_seconds_per_trial"].as_array().unwrap().len(), 2);
         let per_spp = one["rel_mse_times_spp"].as_f64().unwrap();
         assert!(
             (per_spp - rel * spp).abs() <= 1e-12 * per_spp,
@@ -105,6 +121,7 @@ fn bench_rejects_bad_flags() {
         (vec!["-i", "Path()@0"], "≥ 1"),
         (vec!["-i", "Nope()@4"], "Nope"),
         (vec!["--threads", "0"], "thread count"),
+        (vec!["--trials", "0"], "--trials"),
     ] {
         let out = lightlab().arg("bench").args(&args).output().unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);
