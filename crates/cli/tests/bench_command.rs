@@ -80,7 +80,10 @@ fn bench_measures_every_integrator_and_thread_count() {
         assert!((rel - (trials[0] + trials[1]) / 2.0).abs() <= 1e-15 * rel);
         let se = one["rel_mse_se"].as_f64().unwrap();
         let expected = (trials[0] - trials[1]).abs() / 2.0;
-        assert!((se - expected).abs() <= 1e-12 * expected, "{se} against {expected}");
+        assert!(
+            (se - expected).abs() <= 1e-12 * expected,
+            "{se} against {expected}"
+        );
         assert_eq!(one["cpu_seconds_per_trial"].as_array().unwrap().len(), 2);
         let per_spp = one["rel_mse_times_spp"].as_f64().unwrap();
         assert!(

@@ -317,6 +317,14 @@ impl Lock {
                 }))
             }
             Err(std::fs::TryLockError::WouldBlock) => Ok(None),
+            // A file system without locks: render without one. Processes sharing the cache may
+            // then render the same reference twice; each writes it atomically, so none is lost.
+            Err(std::fs::TryLockError::Error(e)) if e.kind() == std::io::ErrorKind::Unsupported => {
+                Ok(Some(Lock {
+                    path: path.to_path_buf(),
+                    _file: file,
+                }))
+            }
             Err(std::fs::TryLockError::Error(e)) => Err(err(e)),
         }
     }
