@@ -1,4 +1,4 @@
-"""Side-by-side speed and efficiency of Lightlab's and Mitsuba 3's path tracers, in one run.
+"""Side-by-side speed and efficiency of Lightlab's and Mitsuba 3's path (or light) tracers, in one run.
 
     pip install mitsuba numpy OpenEXR
     cargo build --release -p lightlab-cli
@@ -7,8 +7,9 @@
 
 For each scene, Lightlab renders scenes/<scene>.ron as shipped (`lightlab render -i 'Path()'`, a
 child process; more with --lightlab-integrator) and Mitsuba 3 renders its translation
-benches/peers/<scene>.xml (`path`, max_depth −1, rr_depth 5, box filter) in the variants scalar_rgb
-and llvm_ad_rgb, each on every --threads count, all at the same spp and resolution, --trials times
+benches/peers/<scene>.xml (`path`, max_depth −1, rr_depth 5, box filter; with --mitsuba-integrator
+ptracer its light tracer instead, max_depth −1, rr_depth 5, against --lightlab-integrator 'Light()',
+which traces as many light paths, width × height × spp) in the variants scalar_rgb and llvm_ad_rgb, each on every --threads count, all at the same spp and resolution, --trials times
 with seeds 1, 2, … The trials go round-robin: trial 1 of every renderer, then trial 2, …, so a
 drift of this VM's speed during the run (runs on different days moved one renderer's rate by 10 %
 against another's) falls on all of them alike. Each Mitsuba trial runs in its own Python process
@@ -92,11 +93,14 @@ def worker(spec):
         dr.set_flag(dr.JitFlag.KernelHistory, True)
     t0 = time.perf_counter()
     scene = mi.load_file(spec["scene"], res=spec["resolution"])
+    # The scene file's own integrator is `path`; another replaces it with the same depth settings.
+    integrator = (None if spec["integrator"] == "path" else
+                  mi.load_dict({"type": spec["integrator"], "max_depth": -1, "rr_depth": 5}))
     load_seconds = time.perf_counter() - t0
 
     def render(spp, seed):
         c0, t0 = cpu_seconds(resource.RUSAGE_SELF), time.perf_counter()
-        img = mi.render(scene, spp=spp, seed=seed)
+        img = mi.render(scene, integrator=integrator, spp=spp, seed=seed)
         dr.eval(img)
         dr.sync_thread()
         return img, time.perf_counter() - t0, cpu_seconds(resource.RUSAGE_SELF) - c0
@@ -176,7 +180,8 @@ def run_lightlab(args, scene, integrator, spp, threads, seed, output):
 def run_mitsuba(args, variant, scene, threads, seeds, outputs):
     """Runs one Mitsuba configuration in a worker process; writes each trial's image to `outputs`."""
     npy = os.path.splitext(outputs[0])[0] + ".npy"
-    spec = {"variant": variant, "threads": threads, "scene": scene, "spp": args.spp,
+    spec = {"variant": variant, "integrator": args.mitsuba_integrator, "threads": threads, "scene": scene,
+            "spp": args.spp,
             "resolution": args.resolution, "seeds": seeds, "output": npy}
     c0 = cpu_seconds(resource.RUSAGE_CHILDREN)
     p = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker", json.dumps(spec)],
@@ -231,6 +236,9 @@ def main():
                     help="Lightlab integrator(s) to time (repeatable; default 'Path()', as shipped; "
                          "'Path(russian_roulette: 5, roulette_threshold: 1.0)' plays roulette as Mitsuba's "
                          "rr_depth 5 does, without its 0.95 cap on survival)")
+    ap.add_argument("--mitsuba-integrator", default="path", choices=["path", "ptracer"],
+                    help="Mitsuba's integrator: its path tracer (the scene files') or its light tracer "
+                         "(compare with --lightlab-integrator 'Light()')")
     ap.add_argument("--lightlab", default=os.path.join(ROOT, "target", "release", "lightlab"))
     ap.add_argument("--out", default="/tmp/mitsuba-speed")
     args = ap.parse_args()
@@ -345,7 +353,7 @@ def main():
 
     mitsuba_version = next((p["mitsuba_version"] for r in rows for p in r["raw"].get("processes", [])), None)
     lines = [
-        f"Mitsuba {mitsuba_version} (`path`, max_depth −1, rr_depth 5) against Lightlab "
+        f"Mitsuba {mitsuba_version} (`{args.mitsuba_integrator}`, max_depth −1, rr_depth 5) against Lightlab "
         f"{git_state()} ({', '.join(integrators)}; defaults russian_roulette 1, roulette_threshold 0.5 unless set), {args.resolution}², "
         f"{args.spp} spp, {args.trials} trial(s) each (seeds {seeds[0]}–{seeds[-1]}; times are means); "
         f"{started}, {os.cpu_count()} × {cpu_model()}, load average before {load_before[0]:.2f}. "
@@ -395,6 +403,7 @@ def main():
                    "lightlab": {"binary": args.lightlab, "git": git_state(), "integrators": integrators},
                    "mitsuba_version": mitsuba_version, "drjit_libllvm_path": llvm_path,
                    "settings": {"spp": args.spp, "threads": args.threads, "resolution": args.resolution,
+                                "mitsuba_integrator": args.mitsuba_integrator,
                                 "reference_spp": args.reference_spp, "variants": args.variants,
                                 "trials": args.trials, "seeds": {"warmup": WARMUP_SEED, "timed": seeds,
                                           "reference": REFERENCE_SEED},
