@@ -132,7 +132,8 @@ def worker(spec):
     # Not mi.Bitmap.write: Mitsuba's OpenEXR writer waits on a thread pool that has no workers after
     # drjit.set_thread_count(1) and never returns. The parent writes the EXRs.
     np.save(spec["output"], np.stack(images))
-    print(json.dumps(result))
+    # On a line of its own: the scalar light tracer's progress bar ends without a newline.
+    print("\n" + json.dumps(result))
 
 
 def read_exr(path, part="radiance"):
