@@ -56,6 +56,15 @@ use std::sync::RwLock;
 
 /// Seed offset of the caustic map's photon stream (independent of the global map's).
 const CAUSTIC_STREAM: u64 = 0x1405_7b7e_f767_814f;
+/// Key of the per-instant photon seeds of a motion-blurred render.
+const INSTANT_STREAM: u64 = 0x696e_7374_616e_7473;
+
+/// The seed of pass `i`'s photon maps in a motion-blurred render: hashed, so that no pass's photon
+/// streams coincide with the camera streams (seed, pixel, pass). (It was `seed ^ (i + 1)·φ`, which
+/// for pass 0 cancelled the photon stream's own offset φ: photon path p drew pixel p's numbers.)
+fn instant_seed(seed: u64, i: u32) -> u64 {
+    lightlab_samplers::hash_u64s(&[seed, INSTANT_STREAM, i as u64])
+}
 
 /// Jensen's two-pass photon mapping, built from checked [`PhotonMapConfig`] settings.
 pub struct PhotonMapper {
@@ -275,7 +284,7 @@ impl PhotonMapper {
         let (mut photons, mut stored) = (0u64, 0u64);
         let mut begin = |i: u32, counters: &mut Counters| {
             let time = pass_time(&scene.camera, seed, i as u64);
-            let pass_seed = seed ^ (i as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            let pass_seed = instant_seed(seed, i);
             let maps = self.maps(scene, pass_seed, time, counters);
             photons += self.config.photons * maps.global.is_some() as u64
                 + self.config.caustic_photons * maps.caustic.is_some() as u64;
@@ -431,6 +440,28 @@ impl Integrator for PhotonMapper {
             outliers: Vec::new(),
             layers: named(router.layer_names(), films),
             stats,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::instant_seed;
+    use crate::photon::trace::photon_sampler;
+    use lightlab_samplers::{Independent, Sampler};
+
+    #[test]
+    fn photon_streams_of_every_instant_differ_from_the_camera_streams() {
+        for seed in [0, 1, 7, u64::MAX] {
+            for pass in 0..32u32 {
+                for p in 0..32u64 {
+                    let mut photon = photon_sampler(instant_seed(seed, pass), p);
+                    let mut camera = Independent::new();
+                    camera.start_pixel_sample(seed, p, pass as u64);
+                    let (a, b) = (photon.next_2d(), camera.next_2d());
+                    assert_ne!(a, b, "seed {seed}, pass {pass}, path/pixel {p}");
+                }
+            }
         }
     }
 }
