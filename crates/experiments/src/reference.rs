@@ -283,11 +283,11 @@ pub fn load_foreign(
 
 /// A lock held while a reference renders: an exclusive advisory lock (`flock`) on a file beside
 /// it. The operating system releases it when its holder exits, however it exits, so a render
-/// killed halfway leaves no lock behind that blocks the next run; the file, removed on drop,
-/// may stay but is then unlocked and simply taken. A lock taken just as its holder finished finds
-/// the reference written (callers check again after taking it), so no reference renders twice.
+/// killed halfway leaves no lock behind that blocks the next run. The file stays (a few bytes
+/// naming the last holder): removing it while locked would let one waiter lock the removed file
+/// and another a new one, both at once. Callers check again after taking the lock whether the
+/// reference was written meanwhile, so no reference renders twice.
 struct Lock {
-    path: PathBuf,
     /// Held open: closing it releases the lock.
     _file: std::fs::File,
 }
@@ -311,28 +311,16 @@ impl Lock {
                 // Who holds it, for a user looking at the cache directory.
                 file.set_len(0).map_err(err)?;
                 let _ = writeln!(file, "pid {}", std::process::id());
-                Ok(Some(Lock {
-                    path: path.to_path_buf(),
-                    _file: file,
-                }))
+                Ok(Some(Lock { _file: file }))
             }
             Err(std::fs::TryLockError::WouldBlock) => Ok(None),
             // A file system without locks: render without one. Processes sharing the cache may
             // then render the same reference twice; each writes it atomically, so none is lost.
             Err(std::fs::TryLockError::Error(e)) if e.kind() == std::io::ErrorKind::Unsupported => {
-                Ok(Some(Lock {
-                    path: path.to_path_buf(),
-                    _file: file,
-                }))
+                Ok(Some(Lock { _file: file }))
             }
             Err(std::fs::TryLockError::Error(e)) => Err(err(e)),
         }
-    }
-}
-
-impl Drop for Lock {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.path);
     }
 }
 
@@ -358,8 +346,10 @@ mod tests {
         // Held: another handle (as another process would) is refused.
         assert!(Lock::take(&path).unwrap().is_none());
         drop(held);
-        assert!(!path.exists(), "dropping the lock removes its file");
-        assert!(Lock::take(&path).unwrap().is_some());
+        assert!(
+            Lock::take(&path).unwrap().is_some(),
+            "dropping the lock releases it"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
