@@ -38,11 +38,13 @@ impl<T: Located> HashGrid<T> {
     /// sort by bucket, stable (a bucket keeps the input order), whose per-item steps (the bounds,
     /// the buckets, the final copy) run in parallel and whose serial steps touch only indices.
     pub fn new(photons: &[T], radius: f32) -> HashGrid<T> {
-        // The minimum is exact, so any grouping of the reduction gives the same origin.
+        // The minimum is exact and `f32::min` passes over NaN (glam's `Vec3::min` would not), so
+        // any grouping of the reduction, whatever the thread count, gives the same origin.
+        let min = |a: Vec3, b: Vec3| Vec3::new(a.x.min(b.x), a.y.min(b.y), a.z.min(b.z));
         let origin = photons
             .par_iter()
             .map(|p| p.position())
-            .reduce(|| Vec3::splat(f32::INFINITY), Vec3::min);
+            .reduce(|| Vec3::splat(f32::INFINITY), min);
         let mut grid = HashGrid {
             photons: Vec::new(),
             cell_ends: vec![0; photons.len().max(1)],
