@@ -191,7 +191,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                 let (mut walls, mut cpus, mut rel_mses) = (Vec::new(), Vec::new(), Vec::new());
                 let (mut paths, mut photons, mut rays) = (0, 0, 0);
                 for trial in 0..args.trials as u64 {
-                    let seed = args.seed + trial;
+                    let seed = args.seed.wrapping_add(trial);
                     let (out, wall, cpu) = timed(|| {
                         pool.install(|| {
                             integrator.render(&scene, &Budget::Samples(*spp), seed, &NoProgress)
@@ -272,7 +272,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
          time than the clock resolves (10 ms: raise its spp); peak resident memory {:.1} MB",
         args.trials,
         args.seed,
-        args.seed + args.trials as u64 - 1,
+        args.seed.wrapping_add(args.trials as u64 - 1),
         args.reference,
         args.reference_spp,
         args.resolution.0,
