@@ -11,7 +11,7 @@ use lightlab_experiments::metrics::{REL_EPSILON, errors};
 use lightlab_experiments::reference::reference;
 use lightlab_experiments::runner::load_scene;
 use lightlab_integrators::{Budget, IntegratorConfig};
-use lightlab_testkit::timing::{peak_rss_bytes, timed};
+use lightlab_testkit::timing::{cpu_model, peak_rss_bytes, timed};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -92,6 +92,9 @@ struct Row {
     rel_mse_se: Option<f64>,
     rel_mse_times_spp: f64,
     efficiency: Option<f64>,
+    /// The machine: its CPU model (`None` where /proc/cpuinfo does not name it) and logical CPUs.
+    cpu_model: Option<String>,
+    logical_cpus: usize,
 }
 
 /// `INTEGRATOR@SPP`, checked: the integrator as written, its settings and its spp.
@@ -149,6 +152,13 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         spp: args.reference_spp,
     };
     let mut rows = Vec::new();
+    let cpu_model = cpu_model();
+    let logical_cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // Rates and ratios hold for one machine: say which.
+    println!(
+        "Machine: {logical_cpus} logical CPUs, {}\n",
+        cpu_model.as_deref().unwrap_or("CPU model unknown")
+    );
     println!(
         "| scene | integrator | threads | spp | wall s | CPU s | M paths / CPU-s | M photon paths / CPU-s | M rays / s | rays per path | relMSE | relMSE × spp | efficiency |"
     );
@@ -236,6 +246,8 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     rel_mse_se,
                     rel_mse_times_spp: rel_mse * *spp as f64,
                     efficiency: (cpu > 0.0).then(|| 1.0 / (rel_mse * cpu)),
+                    cpu_model: cpu_model.clone(),
+                    logical_cpus,
                 };
                 let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map_or("—".into(), f);
                 println!(

@@ -44,6 +44,8 @@ fn bench_measures_every_integrator_and_thread_count() {
     assert!(first.status.success(), "{stderr}");
     assert!(stderr.contains("rendered now"), "{stderr}");
     let table = String::from_utf8_lossy(&first.stdout);
+    // The machine is named: ratios against other renderers depend on the CPU.
+    assert!(table.starts_with("Machine: "), "{table}");
     assert_eq!(
         table
             .lines()
@@ -85,6 +87,12 @@ fn bench_measures_every_integrator_and_thread_count() {
             "{se} against {expected}"
         );
         assert_eq!(one["cpu_seconds_per_trial"].as_array().unwrap().len(), 2);
+        assert!(one["logical_cpus"].as_u64().unwrap() >= 1);
+        assert!(
+            one["cpu_model"].is_string() || one["cpu_model"].is_null(),
+            "{}",
+            one["cpu_model"]
+        );
         let per_spp = one["rel_mse_times_spp"].as_f64().unwrap();
         assert!(
             (per_spp - rel * spp).abs() <= 1e-12 * per_spp,

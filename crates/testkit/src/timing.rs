@@ -26,6 +26,17 @@ pub fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, f64) {
     (out, wall.elapsed().as_secs_f64(), cpu_seconds() - cpu)
 }
 
+/// The CPU's model name (the first "model name" of /proc/cpuinfo), or `None` where there is no such
+/// line (not Linux, or an architecture that names it otherwise). Speed ratios against another
+/// renderer depend on it: a JIT that compiles for the host's vector width gains more from AVX-512.
+pub fn cpu_model() -> Option<String> {
+    let info = std::fs::read_to_string("/proc/cpuinfo").ok()?;
+    info.lines()
+        .find(|l| l.starts_with("model name"))
+        .and_then(|l| l.split_once(':'))
+        .map(|(_, name)| name.trim().to_string())
+}
+
 /// Peak resident memory of the process in bytes (VmHWM of /proc/self/status).
 pub fn peak_rss_bytes() -> u64 {
     let status =
@@ -71,5 +82,19 @@ mod tests {
             "{}",
             v.iter().map(|&b| b as u64).sum::<u64>()
         );
+    }
+
+    /// Where /proc/cpuinfo names the model, it is read without its key and padding.
+    #[test]
+    fn cpu_model_is_the_cpuinfo_model_name() {
+        let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+        match info.lines().find(|l| l.starts_with("model name")) {
+            Some(line) => {
+                let model = cpu_model().expect("a model name line");
+                assert!(!model.is_empty() && !model.starts_with(':'), "{model:?}");
+                assert!(line.ends_with(&model), "{line:?} against {model:?}");
+            }
+            None => assert_eq!(cpu_model(), None),
+        }
     }
 }
