@@ -46,14 +46,17 @@ impl Scene {
     ) -> Scene {
         let lights = merge_environments(lights);
         let (lo, hi) = accel.bounds();
-        let (center, radius) = if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() {
-            (
-                (lo + hi) * 0.5,
-                ((hi - lo) * 0.5).length().max(f32::MIN_POSITIVE),
-            )
-        } else {
-            (camera.eye, 1.0)
-        };
+        // Lights at infinity emit from a disk of this radius (area density 1/(πR²), kept a normal
+        // float by the floor). With no geometry, or all of it at one point, there is nothing to
+        // bound: a unit sphere about the eye keeps those densities and the lights' power finite (a
+        // radius of 0 made them infinite and zero, and the photon methods' images NaN).
+        let half = ((hi - lo) * 0.5).length();
+        let (center, radius) =
+            if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() && half > 0.0 {
+                ((lo + hi) * 0.5, half.max(1e-18))
+            } else {
+                (camera.eye, 1.0)
+            };
         let powers: Vec<f32> = lights
             .iter()
             .map(|l| l.power(accel.shapes(), radius).average())

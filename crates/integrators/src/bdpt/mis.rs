@@ -37,6 +37,9 @@ impl Bdpt {
             _ => lv[i].pdf_rev,
         };
         let camera_delta = |i: usize| i + 1 != t && cv[i].delta;
+        // Strategy (s + t − 1, 1) joins the lens to cv[1]: impossible when that is the environment
+        // a camera ray escaped to (s = 0, t = 2), as no connection reaches a light at infinity.
+        let lens_reaches = |i: usize| i != 1 || !cv[1].infinite;
         let light_delta = |i: usize| i + 1 != s && lv[i].delta;
         let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
         // Each other strategy i enters with rᵢ = pᵢ / p_s: the balance heuristic sums rᵢ, the power
@@ -51,7 +54,7 @@ impl Bdpt {
         let mut ri = 1.0f32;
         for i in (1..t).rev() {
             ri *= remap(camera_rev(i)) / remap(cv[i].pdf_fwd);
-            if !camera_delta(i) && !camera_delta(i - 1) {
+            if !camera_delta(i) && !camera_delta(i - 1) && lens_reaches(i) {
                 sum += term(ri);
             }
         }
@@ -141,8 +144,8 @@ pub(crate) fn reverse_densities(
 /// samples the path with density pᵢ = Π_{j<i} L_j · Π_{j≥i} C_j, where L_j is the area density
 /// with which the light side generates x_j and C_j the camera side's (C_k = 1: the lens point is
 /// never weighed), each recomputed from the geometry; wₛ = pₛ^β / Σᵢ pᵢ^β over the strategies
-/// that can make the path — none connects at a Dirac-delta surface, and no camera path hits a
-/// point light (i = 0). A density generated through a delta vertex, which `PathVertex::pdf`
+/// that can make the path — none connects at a Dirac-delta surface, no camera path hits a
+/// point light (i = 0), and the lens is never joined to a light at infinity (i = k = 1). A density generated through a delta vertex, which `PathVertex::pdf`
 /// cannot evaluate (0), enters as 1, as the fast form reads it: every possible strategy holds
 /// exactly one of the two a delta vertex has (the light side's if it connects after it, the
 /// camera side's if before), so this is the convention of their ratio being 1.
@@ -153,7 +156,7 @@ pub(super) fn reference_weight(scene: &Scene, x: &[PathVertex], s: usize, heuris
     // x₀ (the light) and x_k (the lens) are never delta surfaces.
     let possible = |i: usize| match i {
         0 => !densities.delta_light && !x[0].delta,
-        _ => !x[i - 1].delta && !x[i].delta,
+        _ => !x[i - 1].delta && !x[i].delta && !(i == k && x[i - 1].infinite),
     };
     let density = |i: usize| densities.strategy(i);
     let term = |i: usize| match heuristic {

@@ -146,7 +146,9 @@ impl Techniques {
                 // Connections with s ≥ 1 are the only ones before a camera vertex or a light
                 // vertex past the origin; before the first camera vertex it is light tracing's
                 // (t = 1), with its sample count ℓ.
-                let possible = self.connect && !prev.delta;
+                // Light tracing never joins the lens to a light at infinity: a camera ray that
+                // escaped at once found the environment by s = 0 alone.
+                let possible = self.connect && !prev.delta && (light || m != 1 || !v.infinite);
                 let count = if !light && m == 1 {
                     self.light_tracing
                 } else {
@@ -250,7 +252,9 @@ pub(super) fn reference_weight(
     let densities = crate::bdpt::PathDensities::new(scene, x);
     let possible = |t: Technique| match t {
         Technique::Connect(0) => !densities.delta_light && !x[0].delta,
-        Technique::Connect(i) => techniques.connect && !x[i - 1].delta && !x[i].delta,
+        Technique::Connect(i) => {
+            techniques.connect && !x[i - 1].delta && !x[i].delta && !(i == k && x[i - 1].infinite)
+        }
         Technique::Merge(j) => techniques.merge && !x[j].delta,
     };
     let density = |t: Technique| match t {
