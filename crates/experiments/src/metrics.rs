@@ -32,6 +32,41 @@ impl Image {
     fn var(&self, i: usize) -> [f32; 3] {
         self.variance.as_ref().map_or([0.0; 3], |v| v[i])
     }
+
+    /// `Err` naming how many values are unusable as a reference, and the first one: a mean that is
+    /// not finite, or a variance that is not finite or is negative (errors against it would be NaN
+    /// or infinite, and so would every statistic built on them).
+    pub fn check_finite(&self) -> Result<(), String> {
+        let bad_mean = |p: &[f32; 3]| p.iter().any(|x| !x.is_finite());
+        let bad_var = |p: &[f32; 3]| p.iter().any(|x| !(x.is_finite() && *x >= 0.0));
+        let first_and_count = |pixels: &[[f32; 3]], bad: &dyn Fn(&[f32; 3]) -> bool| {
+            let count = pixels.iter().filter(|p| bad(p)).count();
+            pixels.iter().position(|p| bad(p)).map(|i| (i, count))
+        };
+        let at = |i: usize| {
+            (
+                i % self.width.max(1) as usize,
+                i / self.width.max(1) as usize,
+            )
+        };
+        if let Some((i, n)) = first_and_count(&self.mean, &bad_mean) {
+            return Err(format!(
+                "{n} pixels are NaN or infinite (the first at {:?}: {:?})",
+                at(i),
+                self.mean[i]
+            ));
+        }
+        if let Some(v) = &self.variance
+            && let Some((i, n)) = first_and_count(v, &bad_var)
+        {
+            return Err(format!(
+                "the variance of {n} pixels is NaN, infinite or negative (the first at {:?}: {:?})",
+                at(i),
+                v[i]
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// Errors of one image against the reference, averaged over pixels and channels.
@@ -46,6 +81,15 @@ pub struct Errors {
     /// Mean of the reference's variance of the mean: the part of the raw MSE due to the reference
     /// (0 when the reference has no valid variance; then nothing was subtracted).
     pub reference_variance: f64,
+}
+
+impl Errors {
+    /// Whether every error is a finite number (a run is recorded only then).
+    pub fn is_finite(&self) -> bool {
+        [self.mse, self.rel_mse, self.mae, self.reference_variance]
+            .iter()
+            .all(|x| x.is_finite())
+    }
 }
 
 /// Errors of `x` (pixel values) against `reference`; `None` when the sizes differ.

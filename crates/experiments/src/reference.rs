@@ -167,6 +167,19 @@ pub fn reference(
             c.variance = None;
         }
     }
+    // Errors against a NaN or an infinity are not numbers: refuse before any run is measured.
+    let unusable = |what: &str, e: String| {
+        format!(
+            "reference {}{what}: {e}; a reference must be finite everywhere (fix or replace the \
+             file, or the scene whose lights overflow 32-bit floats)",
+            path.display()
+        )
+    };
+    image.check_finite().map_err(|e| unusable("", e))?;
+    for (name, c) in &classes {
+        c.check_finite()
+            .map_err(|e| unusable(&format!(", layer {name}"), e))?;
+    }
     Ok(Reference {
         image,
         classes,

@@ -319,6 +319,24 @@ pub fn run_experiment(
             let e = errors(&layer.pixels, image).ok_or("layer and reference sizes differ")?;
             class_errors.push((name.clone(), e));
         }
+        // A run is recorded (and so counted as finished) only with finite errors: one NaN would
+        // make every statistic of its setting NaN, and resuming would keep it.
+        if let Some((what, bad)) = std::iter::once(("", &e))
+            .chain(class_errors.iter().map(|(n, e)| (n.as_str(), e)))
+            .find(|(_, e)| !e.is_finite())
+        {
+            return Err(format!(
+                "{} / {} / {} trial {}: its error{}{} against the reference is not finite ({:?}): \
+                 the run's image or the reference holds values beyond 32-bit floats; nothing was recorded",
+                run.scene_name,
+                run.method,
+                run.setting,
+                run.trial,
+                if what.is_empty() { "" } else { " in layer " },
+                what,
+                bad
+            ));
+        }
         if out.stats.pixel_limit == PixelLimit::OneCameraPath {
             warnings.push(format!(
                 "{} / {}: {} converges to the radiance along one camera path per pixel, not to the \

@@ -471,3 +471,56 @@ fn radiosity_runs_record_their_solve_and_plot_error_against_each_swept_setting()
         "non-numeric axis plotted"
     );
 }
+
+/// A reference with a NaN pixel, or with a negative variance, is refused before any run, naming
+/// the file, how many pixels and the first of them; no run is recorded, so a corrected reference
+/// is measured from scratch (a NaN error once made every statistic NaN, and resuming kept it).
+#[test]
+fn non_finite_references_are_refused_before_any_run() {
+    use exr::prelude::write_rgb_file;
+    let (experiment, dir) = setup("nanref");
+    let (w, h) = (8usize, 6usize);
+    let text = EXPERIMENT.replace(
+        r#"Render(integrator: "Path(max_bounces: 3)", spp: 64)"#,
+        r#"Exr(path: "ref.exr", variance: Some("var.exr"))"#,
+    );
+    std::fs::write(&experiment, text).unwrap();
+    let results = dir.join("results");
+    let attempt = |value: f32, variance: f32| {
+        write_rgb_file(dir.join("ref.exr"), w, h, |x, y| {
+            let v = if (x, y) == (3, 2) { value } else { 1.0 };
+            (v, 1.0, 1.0)
+        })
+        .unwrap();
+        write_rgb_file(dir.join("var.exr"), w, h, |x, y| {
+            let v = if (x, y) == (5, 1) { variance } else { 1e-6 };
+            (1e-6, v, 1e-6)
+        })
+        .unwrap();
+        run_experiment(
+            &experiment,
+            &RunOptions::new(results.clone()),
+            &NoProgress,
+            &NoProgress,
+            &|_: &str| {},
+        )
+    };
+    let e = attempt(f32::NAN, 1e-6).map(|o| o.ran).unwrap_err();
+    assert!(
+        e.contains("ref.exr") && e.contains("1 pixels are NaN or infinite") && e.contains("(3, 2)"),
+        "{e}"
+    );
+    let e = attempt(1.0, -1.0).map(|o| o.ran).unwrap_err();
+    assert!(
+        e.contains("variance of 1 pixels") && e.contains("(5, 1)"),
+        "{e}"
+    );
+    assert!(
+        finished_runs(&results.join("tiny"))
+            .unwrap_or_default()
+            .is_empty()
+    );
+    let ok = attempt(1.0, 1e-6).unwrap();
+    assert_eq!(ok.ran, 12);
+    std::fs::remove_dir_all(dir).unwrap();
+}
