@@ -219,6 +219,24 @@ fn other_impossible_values() {
         "{LIGHT} materials: {{ \"a\": Diffuse(albedo: (1, 1, 1)) }}, shapes: [ Shape(geometry: Sphere(center: (0, 0, 0), radius: 1), material: \"a\", emission: (radiance: (-1, 0, 0))) ]"
     ));
     assert!(e.contains("radiance") && e.contains("≥ 0"), "{e}");
+    // Lights so bright that squared pixel values (the variance layer) or the lights' summed power
+    // overflow 32-bit floats: they rendered black or with an infinite variance, uncounted.
+    for light in [
+        "Point(position: (0, 1, 0), intensity: (1e37, 1e37, 1e37))",
+        "Environment(radiance: (1, 2e15, 1))",
+        "Directional(direction: (0, -1, 0), irradiance: (3e38, 0, 0))",
+        "Spot(position: (0, 0, 0), target: (0, -1, 0), intensity: (1e16, 1, 1), cone_angle: 30)",
+    ] {
+        assert_error(
+            &format!("lights: [ {light} ]"),
+            3,
+            &["at most 1e15", "32-bit"],
+        );
+    }
+    let e = error_of(&format!(
+        "{LIGHT} materials: {{ \"a\": Diffuse(albedo: (1, 1, 1)) }}, shapes: [ Shape(geometry: Sphere(center: (0, 0, 0), radius: 1), material: \"a\", emission: (radiance: (1e20, 0, 0))) ]"
+    ));
+    assert!(e.contains("emission radiance must be at most 1e15"), "{e}");
 }
 
 #[test]

@@ -908,7 +908,7 @@ struct EmissionRaw {
 impl TryFrom<EmissionRaw> for EmissionDesc {
     type Error = String;
     fn try_from(e: EmissionRaw) -> Result<Self, String> {
-        non_negative_rgb("emission radiance", e.radiance)?;
+        emitted_rgb("emission radiance", e.radiance)?;
         Ok(EmissionDesc {
             radiance: e.radiance,
             two_sided: e.two_sided,
@@ -1056,7 +1056,7 @@ impl TryFrom<LightRaw> for LightDesc {
                 intensity,
             } => {
                 finite_dvec("Point position", position)?;
-                non_negative_rgb("Point intensity", intensity)?;
+                emitted_rgb("Point intensity", intensity)?;
             }
             LightRaw::Spot {
                 position,
@@ -1071,7 +1071,7 @@ impl TryFrom<LightRaw> for LightDesc {
                 if (target - position).length_squared() == 0.0 {
                     return Err("Spot target equals its position: the axis is undefined".into());
                 }
-                non_negative_rgb("Spot intensity", intensity)?;
+                emitted_rgb("Spot intensity", intensity)?;
                 if !(cone_angle > 0.0 && cone_angle <= 180.0) {
                     return Err(format!(
                         "Spot cone_angle must be in (0, 180] degrees, got {cone_angle}"
@@ -1084,9 +1084,7 @@ impl TryFrom<LightRaw> for LightDesc {
                     ));
                 }
             }
-            LightRaw::Environment { radiance } => {
-                non_negative_rgb("Environment radiance", radiance)?
-            }
+            LightRaw::Environment { radiance } => emitted_rgb("Environment radiance", radiance)?,
             LightRaw::Directional {
                 direction,
                 irradiance,
@@ -1095,7 +1093,7 @@ impl TryFrom<LightRaw> for LightDesc {
                 if direction.length_squared() == 0.0 {
                     return Err("Directional direction must be non-zero".into());
                 }
-                non_negative_rgb("Directional irradiance", irradiance)?;
+                emitted_rgb("Directional irradiance", irradiance)?;
             }
             LightRaw::EnvironmentMap {
                 ref file,
@@ -1105,8 +1103,10 @@ impl TryFrom<LightRaw> for LightDesc {
                 if file.is_empty() {
                     return Err("EnvironmentMap file name is empty".into());
                 }
-                if !(scale >= 0.0 && scale.is_finite()) {
-                    return Err(format!("EnvironmentMap scale must be ≥ 0, got {scale}"));
+                if !(scale >= 0.0 && scale <= MAX_EMITTED) {
+                    return Err(format!(
+                        "EnvironmentMap scale must be in [0, {MAX_EMITTED:e}], got {scale}"
+                    ));
                 }
                 for r in rotate {
                     finite_vec("rotation axis", r.axis)?;
@@ -1181,6 +1181,26 @@ fn unit_rgb(what: &str, c: Rgb) -> Result<(), String> {
             fmt_rgb(c)
         ))
     }
+}
+
+/// The largest emitted value per channel (radiance, intensity or irradiance, in the scene's
+/// units): pixel values are squared into the variance layer, and light powers summed for light
+/// selection, in 32-bit floats (largest 3.4e38), which brighter lights overflowed — to an infinite
+/// variance or, through the light-selection sum, to a black image.
+pub const MAX_EMITTED: f32 = 1e15;
+
+/// A light's emitted colour: ≥ 0, finite and at most [`MAX_EMITTED`] per channel.
+fn emitted_rgb(what: &str, c: Rgb) -> Result<(), String> {
+    non_negative_rgb(what, c)?;
+    if c.max_component() > MAX_EMITTED {
+        return Err(format!(
+            "{what} must be at most {MAX_EMITTED:e} per channel, got {}: pixel values are squared \
+             for their variance in 32-bit floats, which overflow beyond that; express the scene in \
+             larger units of power",
+            fmt_rgb(c)
+        ));
+    }
+    Ok(())
 }
 
 fn non_negative_rgb(what: &str, c: Rgb) -> Result<(), String> {
