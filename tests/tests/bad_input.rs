@@ -260,6 +260,14 @@ fn bad_camera() {
         bad("camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (0, 8))")
             .contains("resolution")
     );
+    // Sides beyond 16384 were accepted and overflowed the film's allocation into an abort.
+    let e = bad(
+        "camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (4294967295, 1))",
+    );
+    assert!(
+        e.contains("1…16384 pixels") && e.contains("4294967295×1"),
+        "{e}"
+    );
     assert!(bad("camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), up: (0, 0, 1), fov: 40, resolution: (8, 8))").contains("parallel"));
     let e = bad(
         "camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (8, 8), lens: ThinLens(aperture_radius: 0, focus_distance: 1))",

@@ -6,7 +6,7 @@ use lightlab_experiments::atomic::write_atomic;
 use lightlab_experiments::image_io::{output_layers, write_exr, write_png};
 use lightlab_integrators::paths::Layers;
 use lightlab_integrators::{Budget, IntegratorConfig};
-use lightlab_scene::Scene;
+use lightlab_scene::{MAX_RESOLUTION, Scene};
 use lightlab_testkit::timing::try_cpu_seconds;
 use std::path::PathBuf;
 
@@ -82,14 +82,17 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
 
 /// `640x480` (or `640,480`).
 pub fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
-    let bad =
-        || format!("'{s}' is not a resolution: write WIDTHxHEIGHT, e.g. 640x480, each 1…16384");
+    let bad = || {
+        format!(
+            "'{s}' is not a resolution: write WIDTHxHEIGHT, e.g. 640x480, each 1…{MAX_RESOLUTION}"
+        )
+    };
     let (w, h) = s.split_once(['x', 'X', ',']).ok_or_else(bad)?;
     let (w, h): (u32, u32) = (
         w.trim().parse().map_err(|_| bad())?,
         h.trim().parse().map_err(|_| bad())?,
     );
-    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+    if !(1..=MAX_RESOLUTION).contains(&w) || !(1..=MAX_RESOLUTION).contains(&h) {
         return Err(bad());
     }
     Ok((w, h))

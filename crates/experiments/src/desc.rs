@@ -2,6 +2,7 @@
 //! sweep, how many independent trials, and the reference every run is compared with. Every field is
 //! documented here and in `experiments/README.md`; unknown fields are errors with file, line and column.
 
+use lightlab_scene::MAX_RESOLUTION;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -248,11 +249,11 @@ impl ExperimentDesc {
             }
         }
         if let Some((w, h)) = self.resolution
-            && (w == 0 || h == 0 || w > 16384 || h > 16384)
+            && !(1..=MAX_RESOLUTION).contains(&w) | !(1..=MAX_RESOLUTION).contains(&h)
         {
             return err(
                 "resolution",
-                format!("resolution must be 1…16384 in each axis, got ({w}, {h})"),
+                format!("resolution must be 1…{MAX_RESOLUTION} in each axis, got ({w}, {h})"),
             );
         }
         match &self.reference {

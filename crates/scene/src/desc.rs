@@ -134,10 +134,13 @@ impl TryFrom<CameraRaw> for CameraDesc {
                 c.fov
             ));
         }
-        if c.resolution.0 == 0 || c.resolution.1 == 0 {
+        let side = 1..=crate::MAX_RESOLUTION;
+        if !side.contains(&c.resolution.0) || !side.contains(&c.resolution.1) {
             return Err(format!(
-                "camera resolution must be at least 1×1, got {}×{}",
-                c.resolution.0, c.resolution.1
+                "camera resolution must be 1…{} pixels in each axis, got {}×{}",
+                crate::MAX_RESOLUTION,
+                c.resolution.0,
+                c.resolution.1
             ));
         }
         if let Lens::ThinLens {

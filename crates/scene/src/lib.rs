@@ -24,3 +24,8 @@ pub use error::SceneError;
 pub use light::{Light, LightEmission, LightSample, SpotProfile, spot_falloff};
 pub use load::{build_scene, load_scene, parse_scene};
 pub use scene::Scene;
+
+/// The largest image side, in pixels, wherever a resolution is given (scene files, Mitsuba films,
+/// `--resolution`, experiments): a film keeps ≈ 80 bytes per pixel, so 16384² is already 21 GB, and
+/// larger sides overflowed the allocation's size into an abort.
+pub const MAX_RESOLUTION: u32 = 16384;

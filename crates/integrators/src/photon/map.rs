@@ -169,7 +169,9 @@ impl PhotonMap {
 
     /// The k nearest photons within `max_radius_sq`, nearest first, as (index, d²).
     pub fn nearest(&self, p: Vec3, k: usize, max_radius_sq: f32) -> Vec<(u32, f32)> {
-        let (Some(tree), Some(k)) = (&self.tree, NonZero::new(k)) else {
+        // No query returns more than the map holds: a k beyond it (up to u32::MAX is accepted)
+        // would only size kiddo's result buffer, 8 bytes per k.
+        let (Some(tree), Some(k)) = (&self.tree, NonZero::new(k.min(self.photons.len()))) else {
             return Vec::new();
         };
         tree.query(&p.to_array())
@@ -303,6 +305,9 @@ mod tests {
                 assert!((a.1 - b.0).abs() < 1e-7, "query {q}: {a:?} vs {b:?}");
             }
         }
+        // A k beyond the photons held (any u32 is accepted) finds them all, allocating no more.
+        let all = map.nearest(Vec3::splat(0.5), u32::MAX as usize, f32::INFINITY);
+        assert_eq!(all.len(), photons.len());
     }
 
     /// Photons on the far side of a thin wall (opposite normal) or arriving from behind the

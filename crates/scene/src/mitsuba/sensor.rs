@@ -200,7 +200,10 @@ pub(crate) fn sensor(el: &Element) -> Result<Sensor, SceneError> {
 fn size(o: &Object, name: &str, default: u32) -> Result<u32, SceneError> {
     match o.integer(name)? {
         None => Ok(default),
-        Some(n) if (1..=65536).contains(&n) => Ok(n as u32),
-        Some(n) => Err(o.error(format!("film {name} must be 1…65536, got {n}"))),
+        Some(n) if (1..=crate::MAX_RESOLUTION as i64).contains(&n) => Ok(n as u32),
+        Some(n) => Err(o.error(format!(
+            "film {name} must be 1…{}, got {n}",
+            crate::MAX_RESOLUTION
+        ))),
     }
 }
