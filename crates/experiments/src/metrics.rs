@@ -41,7 +41,7 @@ impl Image {
         let bad_var = |p: &[f32; 3]| p.iter().any(|x| !(x.is_finite() && *x >= 0.0));
         let first_and_count = |pixels: &[[f32; 3]], bad: &dyn Fn(&[f32; 3]) -> bool| {
             let count = pixels.iter().filter(|p| bad(p)).count();
-            pixels.iter().position(|p| bad(p)).map(|i| (i, count))
+            pixels.iter().position(bad).map(|i| (i, count))
         };
         let at = |i: usize| {
             (

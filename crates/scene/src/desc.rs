@@ -1106,7 +1106,7 @@ impl TryFrom<LightRaw> for LightDesc {
                 if file.is_empty() {
                     return Err("EnvironmentMap file name is empty".into());
                 }
-                if !(scale >= 0.0 && scale <= MAX_EMITTED) {
+                if !(0.0..=MAX_EMITTED).contains(&scale) {
                     return Err(format!(
                         "EnvironmentMap scale must be in [0, {MAX_EMITTED:e}], got {scale}"
                     ));

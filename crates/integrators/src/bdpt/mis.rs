@@ -156,7 +156,7 @@ pub(super) fn reference_weight(scene: &Scene, x: &[PathVertex], s: usize, heuris
     // x₀ (the light) and x_k (the lens) are never delta surfaces.
     let possible = |i: usize| match i {
         0 => !densities.delta_light && !x[0].delta,
-        _ => !x[i - 1].delta && !x[i].delta && !(i == k && x[i - 1].infinite),
+        _ => !(x[i - 1].delta || x[i].delta || (i == k && x[i - 1].infinite)),
     };
     let density = |i: usize| densities.strategy(i);
     let term = |i: usize| match heuristic {

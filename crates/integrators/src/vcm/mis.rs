@@ -253,7 +253,7 @@ pub(super) fn reference_weight(
     let possible = |t: Technique| match t {
         Technique::Connect(0) => !densities.delta_light && !x[0].delta,
         Technique::Connect(i) => {
-            techniques.connect && !x[i - 1].delta && !x[i].delta && !(i == k && x[i - 1].infinite)
+            techniques.connect && !(x[i - 1].delta || x[i].delta || (i == k && x[i - 1].infinite))
         }
         Technique::Merge(j) => techniques.merge && !x[j].delta,
     };
