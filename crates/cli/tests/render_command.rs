@@ -117,6 +117,18 @@ fn bad_input_is_an_error_not_a_panic() {
             ],
             "--spp",
         ),
+        (
+            // Refused before rendering: two layers of one name were found only when writing.
+            vec![
+                "render".into(),
+                repo().join("scenes/cornell-box.ron").display().to_string(),
+                "--layers".into(),
+                "LDE,LS+DE,LDE".into(),
+                "-o".into(),
+                dir.join("twice.exr").display().to_string(),
+            ],
+            "LDE is given twice",
+        ),
     ];
     for (args, want) in cases {
         let out = lightlab().args(&args).output().unwrap();
@@ -125,6 +137,7 @@ fn bad_input_is_an_error_not_a_panic() {
         assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
         assert!(err.contains(want), "{args:?}: expected '{want}' in: {err}");
     }
+    assert!(!dir.join("twice.json").exists());
     std::fs::remove_dir_all(dir).unwrap();
 }
 

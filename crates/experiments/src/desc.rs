@@ -278,6 +278,15 @@ impl ExperimentDesc {
                 return err(&format!("\"{class}\""), format!("classes: {e}"));
             }
         }
+        // Each class is a layer named by its expression (a repeated one fails here, not after
+        // the reference has rendered).
+        if let Err(e) = lightlab_integrators::paths::Router::check(
+            None,
+            &lightlab_integrators::paths::Layers::Classes(self.classes.clone()),
+        ) && !self.classes.is_empty()
+        {
+            return err("classes", format!("classes: {e}"));
+        }
         if self.trials < 2 {
             return err(
                 "trials",
@@ -459,6 +468,14 @@ mod tests {
                 ),
                 "e.ron:9:",
                 "not a valid budget",
+            ),
+            (
+                GOOD.replace(
+                    "trials: 3,",
+                    "trials: 3,\n        classes: [\"LE\", \"LS+DE\", \"LE\"],",
+                ),
+                "e.ron:11:",
+                "LE is given twice",
             ),
         ];
         for (text, at, words) in cases {

@@ -65,13 +65,22 @@ impl Router {
                 if exprs.is_empty() {
                     return Err("layers: Classes needs at least one expression".into());
                 }
-                Split::Classes(
-                    exprs
-                        .iter()
-                        .map(|e| PathRegex::new(e))
-                        .collect::<Result<_, _>>()
-                        .map_err(|e| format!("layers: {e}"))?,
-                )
+                let regexes: Vec<PathRegex> = exprs
+                    .iter()
+                    .map(|e| PathRegex::new(e))
+                    .collect::<Result<_, _>>()
+                    .map_err(|e| format!("layers: {e}"))?;
+                // Each layer is named by its expression; a repeated one would name two layers alike
+                // (which no EXR holds) and leave the second always empty, as the first match wins.
+                for (i, r) in regexes.iter().enumerate() {
+                    if regexes[..i].iter().any(|q| q.as_str() == r.as_str()) {
+                        return Err(format!(
+                            "layers: {} is given twice; each expression names one layer, so list it once",
+                            r.as_str()
+                        ));
+                    }
+                }
+                Split::Classes(regexes)
             }
         };
         Ok(Router { filter, split })
