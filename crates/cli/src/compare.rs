@@ -64,6 +64,15 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
     }
     let a = load_foreign(&args.a, args.layer_a.as_deref(), args.variance_a.as_deref())?;
     let b = load_foreign(&args.b, args.layer_b.as_deref(), args.variance_b.as_deref())?;
+    // A NaN or an infinity makes every statistic NaN or infinite: say where instead.
+    for (path, image) in [(&args.a, &a), (&args.b, &b)] {
+        image.check_finite().map_err(|e| {
+            format!(
+                "{}: {e}; compare needs finite values (and variances ≥ 0)",
+                path.display()
+            )
+        })?;
+    }
     if (a.width, a.height) != (b.width, b.height) {
         return Err(format!(
             "{} is {}×{} but {} is {}×{}",
@@ -134,6 +143,9 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                 z.alpha,
                 z.chi2_p_value
             ),
+            None if a.variance.is_some() && b.variance.is_some() => {
+                println!("no z-test: the variances of A and B are both 0 in every pixel compared")
+            }
             None => println!(
                 "no z-test: an image has no variance layer (give --variance-a/--variance-b)"
             ),

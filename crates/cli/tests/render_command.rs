@@ -409,6 +409,21 @@ fn compare_two_renders() {
     );
     let (code, _, err) = run(&["a.exr", "b.exr", "--region", "0,0,99,2"]);
     assert!(code == Some(1) && err.contains("past"), "{err}");
+    // One NaN pixel made the MSE NaN, printed as a result: now the file and pixel are named.
+    let mut pixels = vec![[0.5f32; 3]; 24 * 24];
+    pixels[24 + 3][1] = f32::NAN;
+    let layer = lightlab_experiments::image_io::RgbLayer {
+        name: "radiance".into(),
+        pixels,
+    };
+    lightlab_experiments::image_io::write_exr(&dir.join("nan.exr"), 24, 24, &[layer]).unwrap();
+    let (code, out, err) = run(&["a.exr", "nan.exr"]);
+    assert!(
+        code == Some(1)
+            && err.contains("nan.exr: 1 pixels are NaN or infinite")
+            && err.contains("(3, 1)"),
+        "{out}{err}"
+    );
     std::fs::remove_dir_all(dir).ok();
 }
 
