@@ -19,9 +19,29 @@ pub fn set_value(text: &str, path: &str, value: &str) -> Result<String, String> 
     Ok(format!(
         "{}{}{}",
         &text[..start],
-        value.trim(),
+        one_value(value)?,
         &text[end..]
     ))
+}
+
+/// `value` as exactly one RON value: pasted into the file, a second one (`60, up: (0, 0, 1)`) would
+/// set a field the file never wrote, and a trailing comment would swallow the rest of the line.
+fn one_value(value: &str) -> Result<&str, String> {
+    let value = value.trim();
+    let mut v = Scanner {
+        s: value.as_bytes(),
+        i: 0,
+    };
+    let (start, end) = v
+        .value()
+        .map_err(|e| format!("{value:?} is not a RON value: {e}"))?;
+    if end < value.len() {
+        return Err(format!(
+            "{value:?} is more than one value: write a single RON value (a number, a string, or a \
+             bracketed tuple, list or map), without comments after it"
+        ));
+    }
+    Ok(&value[start..end])
 }
 
 /// Applies `KEY=VALUE` overrides in order.
@@ -164,9 +184,14 @@ impl Scanner<'_> {
                 if self.word().is_empty() {
                     return Err(self.err("expected a value"));
                 }
+                // A variant's fields follow its name; anything else after the word (spaces, a
+                // comment) is not part of the value.
+                let after = self.i;
                 self.skip();
                 if self.peek() == Some(b'(') {
                     self.group()?;
+                } else {
+                    self.i = after;
                 }
             }
             None => return Err(self.err("unexpected end of the scene")),
@@ -322,6 +347,17 @@ Scene(
         assert!(t.contains("eye: (1, 2, 3)") && t.contains("fov: 10"), "{t}");
         // Everything else is untouched, line by line.
         assert_eq!(t.lines().count(), SCENE.lines().count());
+    }
+
+    /// VALUE is one RON value: a second value or a comment would have been pasted into the file.
+    #[test]
+    fn values_are_exactly_one_ron_value() {
+        for value in ["60, up: (0, 0, 1)", "60 // x", "(1, 2) (3, 4)", "", "(1, 2"] {
+            let e = set_value(SCENE, "camera.fov", value).unwrap_err();
+            assert!(e.contains("value"), "{value}: {e}");
+        }
+        let t = set_value(SCENE, "camera.eye", " (1, /* up */ 2, 3) ").unwrap();
+        assert!(t.contains("eye: (1, /* up */ 2, 3),"), "{t}");
     }
 
     #[test]
