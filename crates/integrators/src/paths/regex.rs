@@ -25,7 +25,7 @@ const DEAD: u32 = 0;
 /// A malformed expression: where (1-based column, in characters) and what.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PathRegexError {
-    /// The expression as written.
+    /// The expression as written (its first 40 characters and "…" when it is over the length limit).
     pub expression: String,
     /// Column of the fault, from 1, in characters.
     pub column: usize,
@@ -59,6 +59,9 @@ impl PartialEq for PathRegex {
         self.source == other.source
     }
 }
+
+/// The longest expression accepted, in characters.
+const MAX_EXPRESSION: usize = 1000;
 
 enum Ast {
     Set(u8),
@@ -285,6 +288,18 @@ impl Nfa {
 impl PathRegex {
     /// Parses and compiles `expression`.
     pub fn new(expression: &str) -> Result<PathRegex, PathRegexError> {
+        // Parsing and compiling recurse per nesting level and take time quadratic in the length:
+        // 20 000 nested parentheses overflowed the stack.
+        let length = expression.chars().count();
+        if length > MAX_EXPRESSION {
+            return Err(PathRegexError {
+                expression: expression.chars().take(40).chain("…".chars()).collect(),
+                column: MAX_EXPRESSION + 1,
+                message: format!(
+                    "an expression is at most {MAX_EXPRESSION} characters long, this one {length}"
+                ),
+            });
+        }
         let mut p = Parser {
             chars: expression.chars().collect(),
             pos: 0,
@@ -356,7 +371,7 @@ impl PathRegex {
         Ok(re)
     }
 
-    /// The expression as written.
+    /// The expression as written (its first 40 characters and "…" when it is over the length limit).
     pub fn as_str(&self) -> &str {
         &self.source
     }
@@ -459,6 +474,11 @@ mod tests {
             ("L|", 3, "empty"),
             ("", 1, "empty"),
             ("SDE", 1, "matches no path"),
+            (
+                &format!("L{}D{}E", "(".repeat(20_000), ")".repeat(20_000)),
+                1001,
+                "at most 1000",
+            ),
         ] {
             let r = PathRegex::new(expr);
             if column == 0 {
