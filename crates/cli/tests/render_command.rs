@@ -462,7 +462,10 @@ fn mitsuba_files_render_with_their_settings_and_defines() {
         "{stdout}{stderr}"
     );
     for (args, expect) in [
-        (vec!["-D", "nope=1"], "no parameter $nope"),
+        (
+            vec!["-D", "nope=1"],
+            "no parameter $nope (its parameters: res, spp)",
+        ),
         (vec!["--set", "camera.fov=10"], "with -D NAME=VALUE"),
     ] {
         let (ok, _, stderr) = render_with(&scene, &args, &out);

@@ -298,6 +298,17 @@ fn sensors_map_fov_axes_lenses_and_mirrors() {
         )
     };
     let fov = |extra: &str| ok("fov", &sensor(extra, "perspective")).desc.camera.fov as f64;
+    // The shutter is imported (it was documented but refused as an unknown parameter).
+    let shutter =
+        r#"<float name="shutter_open" value="0.25"/><float name="shutter_close" value="0.75"/>"#;
+    let lens =
+        r#"<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="4"/>"#;
+    for (kind, extra) in [("perspective", ""), ("thinlens", lens)] {
+        let c = ok("shutter", &sensor(&format!("{shutter}{extra}"), kind))
+            .desc
+            .camera;
+        assert_eq!(c.shutter, (0.25, 0.75), "{kind}");
+    }
     let smaller = |axis_fov: f64, extent: f64| {
         2.0 * ((axis_fov.to_radians() / 2.0).tan() * 32.0 / extent)
             .atan()
@@ -512,6 +523,20 @@ fn cubes_face_outward_and_spheres_take_their_transform() {
         ),
     );
     assert!(m.contains("ellipsoid"), "{m}");
+    // Radii that are not a sphere's say so (they were blamed on a to_world the file did not have).
+    for (radius, words) in [
+        ("0", "radius must be > 0 and finite, got 0"),
+        ("-1", "radius must be > 0 and finite, got -1"),
+        ("1e-300", "beyond what 32-bit floats hold"),
+    ] {
+        let (_, _, m) = err(
+            "radius",
+            &format!(
+                "{SENSOR}<shape type=\"sphere\"><float name=\"radius\" value=\"{radius}\"/></shape>"
+            ),
+        );
+        assert!(m.contains(words), "{radius}: {m}");
+    }
 }
 
 #[test]

@@ -142,6 +142,12 @@ pub(crate) fn sensor(el: &Element) -> Result<Sensor, SceneError> {
             _ => unreachable!("nested() returned only films and samplers"),
         }
     }
+    // Mitsuba 3's sensor keeps the shutter as shutter_open and shutter_close (default 0); read
+    // before `finish`, which refuses whatever was not read.
+    let shutter = (
+        o.float_or("shutter_open", 0.0)? as f32,
+        o.float_or("shutter_close", 0.0)? as f32,
+    );
     o.finish()?;
 
     // Mitsuba's camera looks along +z with +y up and +x to the image's left.
@@ -186,11 +192,7 @@ pub(crate) fn sensor(el: &Element) -> Result<Sensor, SceneError> {
         fov: (2.0 * t.atan()).to_degrees() as f32,
         resolution,
         lens,
-        // Mitsuba 3's sensor keeps the shutter as shutter_open and shutter_close (default 0).
-        shutter: (
-            o.float_or("shutter_open", 0.0)? as f32,
-            o.float_or("shutter_close", 0.0)? as f32,
-        ),
+        shutter,
     };
     let mut camera = CameraDesc::try_from(raw).map_err(|e| o.error(e))?;
     camera.mirrored = mirrored;

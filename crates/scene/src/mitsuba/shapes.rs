@@ -129,6 +129,11 @@ pub(crate) fn geometry(
             }
             let center = o.point("center")?.unwrap_or(DVec3::ZERO);
             let radius = o.float_or("radius", 1.0)?;
+            if !(radius > 0.0 && radius.is_finite()) {
+                return Err(o.error(format!(
+                    "a sphere's radius must be > 0 and finite, got {radius}"
+                )));
+            }
             let m = to_world
                 * DMat4::from_translation(center)
                 * DMat4::from_scale(DVec3::splat(radius));
@@ -139,7 +144,12 @@ pub(crate) fn geometry(
                 && lin.x_axis.dot(lin.y_axis).abs() <= 1e-6 * r * r
                 && lin.y_axis.dot(lin.z_axis).abs() <= 1e-6 * r * r
                 && lin.z_axis.dot(lin.x_axis).abs() <= 1e-6 * r * r;
-            if !similar || !(r > 0.0) {
+            if !((r as f32) > 0.0 && (r as f32).is_finite()) {
+                return Err(o.error(format!(
+                    "the sphere's radius in the world, {r:e}, is beyond what 32-bit floats hold"
+                )));
+            }
+            if !similar {
                 return Err(o.error(
                     "a sphere's to_world must be a rotation, uniform scale and translation (an \
                      ellipsoid is not a sphere)",

@@ -93,10 +93,19 @@ impl Params {
                 col: 1,
                 message: format!(
                     "-D {name}=…: the scene has no parameter ${name} (its parameters: {})",
-                    if self.values.is_empty() {
-                        "none".to_string()
-                    } else {
-                        self.values.keys().cloned().collect::<Vec<_>>().join(", ")
+                    {
+                        // The scene's own parameters, not the unused -D names themselves.
+                        let own: Vec<&str> = self
+                            .values
+                            .keys()
+                            .filter(|k| self.defines.get(*k) != Some(&false))
+                            .map(String::as_str)
+                            .collect();
+                        if own.is_empty() {
+                            "none".to_string()
+                        } else {
+                            own.join(", ")
+                        }
                     }
                 ),
             }),
