@@ -410,6 +410,15 @@ fn integrators_map_max_depth_to_bounces() {
             .unwrap_err()
             .contains("max_depth")
     );
+    // Beyond u32 it said only "Integer is out of bounds", at a column of the generated RON.
+    let e = integ(
+        r#"<integrator type="path"><integer name="max_depth" value="99999999999999"/></integrator>"#,
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("max_depth must be −1 (unlimited) or 1…4294967295"),
+        "{e}"
+    );
     assert!(
         integ(r#"<integrator type="aov"/>"#)
             .unwrap_err()

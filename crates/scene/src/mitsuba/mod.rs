@@ -295,13 +295,17 @@ fn integrator_ron(el: &Element) -> Result<String, SceneError> {
         }
         let max = match max_depth {
             -1 => "None".to_string(),
-            m if m >= 1 => format!("Some({})", m - 1),
+            m if (1..=u32::MAX as i64).contains(&m) => format!("Some({})", m - 1),
             m => {
                 return Err(o.error(format!(
-                    "max_depth must be −1 (unlimited) or ≥ 1 (1 = emitters seen directly), got {m}"
+                    "max_depth must be −1 (unlimited) or 1…{} (1 = emitters seen directly), got {m}",
+                    u32::MAX
                 )));
             }
         };
+        if rr > u32::MAX as i64 {
+            return Err(o.error(format!("rr_depth must be at most {}, got {rr}", u32::MAX)));
+        }
         // Mitsuba plays roulette on every path from rr_depth on, survival in proportion to
         // throughput (capped at 0.95 there; not here): Lightlab's threshold 1.
         Ok(format!(
