@@ -254,6 +254,18 @@ pub struct ConvergenceArgs {
 pub fn convergence(args: ConvergenceArgs) -> Result<(), String> {
     use lightlab_experiments::atomic::write_atomic;
     use lightlab_experiments::convergence::{FUNCTIONS, Study, plot, run};
+    // The sample counts are the powers of two up to --max-spp; a slope needs two of them.
+    let fitted = (0..32)
+        .map(|k| 1u64 << k)
+        .filter(|&n| n >= args.fit_from as u64 && n <= args.max_spp as u64)
+        .count();
+    if fitted < 2 {
+        return Err(format!(
+            "--fit-from {} leaves {fitted} sample count (1, 2, 4, … up to --max-spp {}) for the \
+             slope fit, which needs two: lower --fit-from or raise --max-spp",
+            args.fit_from, args.max_spp
+        ));
+    }
     let study = Study {
         max_spp: args.max_spp,
         seeds: args.seeds,

@@ -129,6 +129,19 @@ fn bad_input_is_an_error_not_a_panic() {
             ],
             "LDE is given twice",
         ),
+        (
+            // No slope can be fitted to fewer than two sample counts (it printed only "—").
+            vec![
+                "convergence".into(),
+                "--fit-from".into(),
+                "64".into(),
+                "--max-spp".into(),
+                "4".into(),
+                "--results".into(),
+                dir.join("conv").display().to_string(),
+            ],
+            "leaves 0 sample count",
+        ),
     ];
     for (args, want) in cases {
         let out = lightlab().args(&args).output().unwrap();
@@ -417,6 +430,12 @@ fn compare_two_renders() {
         pixels,
     };
     lightlab_experiments::image_io::write_exr(&dir.join("nan.exr"), 24, 24, &[layer]).unwrap();
+    std::fs::write(dir.join("png.exr"), b"\x89PNG\r\n\x1a\n").unwrap();
+    let (code, _, err) = run(&["a.exr", "png.exr"]);
+    assert!(
+        code == Some(1) && err.contains("png.exr") && err.contains("not an OpenEXR file"),
+        "{err}"
+    );
     let (code, out, err) = run(&["a.exr", "nan.exr"]);
     assert!(
         code == Some(1)

@@ -123,7 +123,20 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<RgbLayer>), ImageError> {
         .all_layers()
         .all_attributes()
         .from_file(path)
-        .map_err(|e| err(e.to_string()))?;
+        .map_err(|e| {
+            // The exr crate's own message for a file of another kind ("reference to missing
+            // bytes") does not say so: OpenEXR files begin with the magic number 76 2f 31 01.
+            let mut magic = [0u8; 4];
+            let other_kind = std::fs::File::open(path).is_ok_and(|mut f| {
+                std::io::Read::read_exact(&mut f, &mut magic).is_err()
+                    || magic != [0x76, 0x2f, 0x31, 0x01]
+            });
+            err(if !other_kind {
+                e.to_string()
+            } else {
+                format!("not an OpenEXR file (it does not begin with OpenEXR's magic number; {e})")
+            })
+        })?;
     let mut size = None;
     let mut out = Vec::new();
     for layer in &image.layer_data {

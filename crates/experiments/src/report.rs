@@ -607,6 +607,13 @@ pub fn plot_from_csv(out_dir: &Path) -> io::Result<Vec<String>> {
         .deserialize()
         .collect::<Result<_, _>>()
         .map_err(|e| io::Error::other(format!("{}: {e}", path.display())))?;
+    if rows.is_empty() {
+        return Err(io::Error::other(format!(
+            "{}: no runs in it (an experiment's runs.csv has a header line, then a row per run \
+             and metric)",
+            path.display()
+        )));
+    }
     Ok(write_plots(out_dir, &rows)?.files)
 }
 

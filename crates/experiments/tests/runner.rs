@@ -121,6 +121,10 @@ fn interrupted_sweep_resumes_to_the_same_results() {
     std::fs::remove_file(out.join("furnace-efficiency.svg")).unwrap();
     assert_eq!(plot_from_csv(&out).unwrap().len(), 3);
     assert!(out.join("furnace-efficiency.svg").is_file());
+    // A runs.csv with no runs in it is an error, not "0 plots".
+    std::fs::write(out.join("runs.csv"), "not,an,experiment\n").unwrap();
+    let e = plot_from_csv(&out).unwrap_err().to_string();
+    assert!(e.contains("no runs in it"), "{e}");
     std::fs::remove_dir_all(dir).unwrap();
 }
 
