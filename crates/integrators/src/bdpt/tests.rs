@@ -6,6 +6,30 @@ use glam::Vec2;
 use lightlab_core::Rgb;
 use lightlab_geometry::NO_LIGHT;
 
+/// The scenes the weights are checked on: the Cornell box (diffuse, an area light), the caustic
+/// sphere (specular vertices, impossible strategies) and spheres on a plane under a constant sky
+/// (a light at infinity: seen directly, reached after bounces, and emitting light subpaths from a
+/// disk).
+pub(crate) fn weight_scenes() -> Vec<(&'static str, Scene)> {
+    let sky = lightlab_scene::parse_scene(
+        r#"Scene(camera: Camera(eye: (0, 1, 4), target: (0, 0.5, 0), fov: 50, resolution: (256, 256)),
+            materials: { "white": Diffuse(albedo: (0.7, 0.7, 0.7)), "glass": Dielectric(ior: 1.5) },
+            shapes: [
+                Shape(geometry: Quad(corner: (-3, 0, -3), edge1: (0, 0, 6), edge2: (6, 0, 0)), material: "white"),
+                Shape(geometry: Sphere(center: (-0.6, 0.5, 0), radius: 0.5), material: "white"),
+                Shape(geometry: Sphere(center: (0.6, 0.5, 0), radius: 0.5), material: "glass"),
+            ],
+            lights: [ Environment(radiance: (1, 1, 1)) ])"#,
+        std::path::Path::new("sky.ron"),
+    )
+    .unwrap();
+    vec![
+        ("cornell-box.ron", scene("cornell-box.ron")),
+        ("caustic-sphere.ron", scene("caustic-sphere.ron")),
+        ("sky", sky),
+    ]
+}
+
 pub(crate) fn scene(name: &str) -> Scene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../scenes")
@@ -25,7 +49,10 @@ pub(crate) fn split(
     let t = n - s;
     let mut camera: Vec<PathVertex> = z[..t].to_vec();
     let mut light: Vec<PathVertex> = z[t..].iter().rev().copied().collect();
-    if let Some(y0) = light.first_mut() {
+    // An emitting surface becomes a light vertex; an environment reached by escaping already is.
+    if let Some(y0) = light.first_mut()
+        && y0.kind == Kind::Surface
+    {
         y0.kind = Kind::Light { light: y0.emitter };
         y0.sb = None;
         y0.delta = false;
@@ -55,11 +82,13 @@ pub(crate) fn split(
 }
 
 /// Up to 300 camera paths, traced with `seed`, that end on an emitter they receive light from
-/// (at least 50 of them): a camera vertex, 1–7 scattering vertices and the emitter.
+/// (at least 50 of them): a camera vertex, 0–7 scattering vertices and the emitter (a surface, or
+/// the environment a ray escaped to).
 pub(crate) fn camera_paths_to_lights(scene: &Scene, seed: u64) -> Vec<Vec<PathVertex>> {
     let bdpt = bdpt(6);
     let mut counters = Counters::default();
     let mut out = Vec::new();
+    let mut direct = 0;
     for pixel in 0..200_000u64 {
         let mut sampler = Independent::new();
         sampler.start_pixel_sample(seed, pixel, 0);
@@ -70,7 +99,15 @@ pub(crate) fn camera_paths_to_lights(scene: &Scene, seed: u64) -> Vec<Vec<PathVe
         let mut z = Vec::new();
         bdpt.camera_subpath(scene, film, 0.0, &mut sampler, 8, &mut z, &mut counters);
         let Some(last) = z.last() else { continue };
-        if z.len() >= 3 && last.emitter != NO_LIGHT && !last.le(scene, &z[z.len() - 2]).is_black() {
+        // Emitters seen directly (a camera vertex and the emitter) at most 30 times, so longer
+        // paths fill the rest.
+        if z.len() == 2 {
+            if direct == 30 {
+                continue;
+            }
+            direct += 1;
+        }
+        if last.light().is_some() && !last.le(scene, &z[z.len() - 2]).is_black() {
             out.push(z);
             if out.len() == 300 {
                 break;
@@ -96,6 +133,10 @@ fn fast_weights(scene: &Scene, z: &[PathVertex], heuristic: Mis) -> Vec<(usize, 
             if s > 0 && (light[s - 1].delta || camera[t - 1].delta) {
                 return None;
             }
+            // No connection reaches the lens from a light at infinity (`connection`).
+            if s > 0 && t == 1 && light[s - 1].infinite {
+                return None;
+            }
             let sampled = match (s, t) {
                 (_, 1) => Some(camera[0]),
                 (1, _) => Some(light[0]),
@@ -109,12 +150,10 @@ fn fast_weights(scene: &Scene, z: &[PathVertex], heuristic: Mis) -> Vec<(usize, 
 
 /// Veach's condition for unbiased MIS: the weights of all strategies that can produce a path sum
 /// to one, for the balance and power heuristics and uniform weights. Checked on camera paths that
-/// end on the light, in the Cornell box (all diffuse) and the caustic scene (delta vertices,
-/// whose connections are impossible strategies).
+/// end on a light, in the [`weight_scenes`].
 #[test]
 fn weights_of_all_strategies_sum_to_one() {
-    for name in ["cornell-box.ron", "caustic-sphere.ron"] {
-        let scene = scene(name);
+    for (name, scene) in weight_scenes() {
         for z in camera_paths_to_lights(&scene, 7) {
             for heuristic in [Mis::Balance, Mis::Power, Mis::Uniform] {
                 let sum: f64 = fast_weights(&scene, &z, heuristic)
@@ -133,22 +172,24 @@ fn weights_of_all_strategies_sum_to_one() {
 
 /// The fast weights (Veach's walk over density ratios) equal the weights from their definition
 /// (`mis::reference_weight`: every strategy's path density recomputed from the geometry), for
-/// every strategy of camera paths that end on a light, in the Cornell box (diffuse) and the
-/// caustic scene (specular vertices, impossible strategies), for the balance and power
-/// heuristics and uniform weights. Tolerance: 1e-3 relative (f32 densities).
+/// every strategy of camera paths that end on a light, in the [`weight_scenes`], for the
+/// balance and power heuristics and uniform weights. Tolerance: 1e-3 relative (f32 densities).
 #[test]
 fn fast_weights_equal_the_reference_definition() {
-    for name in ["cornell-box.ron", "caustic-sphere.ron"] {
-        let scene = scene(name);
+    for (name, scene) in weight_scenes() {
         let mut with_delta = 0;
+        let mut escaped = 0;
         for z in camera_paths_to_lights(&scene, 11) {
             // The path light first, its emitter as a light vertex.
             let mut x: Vec<PathVertex> = z.iter().rev().copied().collect();
-            x[0].kind = Kind::Light {
-                light: x[0].emitter,
-            };
-            x[0].sb = None;
-            x[0].delta = false;
+            if x[0].kind == Kind::Surface {
+                x[0].kind = Kind::Light {
+                    light: x[0].emitter,
+                };
+                x[0].sb = None;
+                x[0].delta = false;
+            }
+            escaped += x[0].infinite as u32;
             with_delta += x.iter().any(|v| v.delta) as u32;
             for heuristic in [Mis::Balance, Mis::Power, Mis::Uniform] {
                 for (s, t, fast) in fast_weights(&scene, &z, heuristic) {
@@ -162,10 +203,16 @@ fn fast_weights_equal_the_reference_definition() {
                 }
             }
         }
-        if name == "caustic-sphere.ron" {
+        if name != "cornell-box.ron" {
             assert!(
                 with_delta >= 10,
                 "{name}: only {with_delta} paths through the glass"
+            );
+        }
+        if name == "sky" {
+            assert!(
+                escaped >= 250,
+                "{name}: only {escaped} paths reached the sky"
             );
         }
     }

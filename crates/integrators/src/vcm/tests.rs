@@ -5,7 +5,7 @@ use super::merge::merge_weight;
 use super::mis::{Heuristic, Quantities, Technique, Techniques, reference_weight};
 use super::*;
 use crate::bdpt::tests::{
-    bdpt, camera_paths_to_lights, flat_interface, production_paths, scene, split,
+    bdpt, camera_paths_to_lights, flat_interface, production_paths, scene, split, weight_scenes,
 };
 use crate::bdpt::{Bdpt, Mis};
 use crate::walk::Kind;
@@ -62,32 +62,36 @@ fn glossy_cornell() -> Scene {
 /// The recursive weights (two quantities per vertex, `mis`) equal the weights from their
 /// definition (`mis::reference_weight`: every technique's density recomputed from the geometry)
 /// for every connection and merge that can make camera paths ending on a light, and sum to one —
-/// in the Cornell box (diffuse), a glossy Cornell box and the caustic scene (specular vertices,
-/// impossible techniques), for every variant, both heuristics and two merge radii. Tolerance:
+/// in the `bdpt::tests::weight_scenes` (diffuse, specular vertices and impossible techniques, an
+/// environment) and a glossy Cornell box, for every variant, both heuristics and two merge radii. Tolerance:
 /// 1e-3 relative (f32 densities).
 #[test]
 fn recursive_weights_equal_the_definition() {
-    for (name, scene) in [
-        ("cornell box", scene("cornell-box.ron")),
-        ("glossy cornell box", glossy_cornell()),
-        ("caustic sphere", scene("caustic-sphere.ron")),
-    ] {
+    let mut scenes = weight_scenes();
+    scenes.push(("glossy cornell box", glossy_cornell()));
+    for (name, scene) in scenes {
         let mut merges = 0;
         for z in camera_paths_to_lights(&scene, 11) {
             let n = z.len();
-            // The path light first, its emitter as a light vertex.
+            // The path light first, its emitter as a light vertex (an environment is one).
             let mut x: Vec<PathVertex> = z.iter().rev().copied().collect();
-            x[0].kind = Kind::Light {
-                light: x[0].emitter,
-            };
-            x[0].sb = None;
-            x[0].delta = false;
+            if x[0].kind == Kind::Surface {
+                x[0].kind = Kind::Light {
+                    light: x[0].emitter,
+                };
+                x[0].sb = None;
+                x[0].delta = false;
+            }
             for (t, eta) in all_techniques() {
                 let mut sum = 0.0f64;
                 for s in 0..n {
                     let (light, camera) = split(&scene, &z, s);
                     let tc = n - s;
                     if s > 0 && (!t.connect || light[s - 1].delta || camera[tc - 1].delta) {
+                        continue;
+                    }
+                    // No connection reaches the lens from a light at infinity.
+                    if s > 0 && tc == 1 && light[s - 1].infinite {
                         continue;
                     }
                     let (lq, cq) = (

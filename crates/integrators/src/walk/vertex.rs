@@ -125,7 +125,14 @@ impl PathVertex {
 
     /// Radiance this vertex emits toward `to`.
     pub fn le(&self, scene: &Scene, to: &PathVertex) -> Rgb {
-        self.le_toward(scene, (to.p - self.p).normalize())
+        // At infinity `ng` is exactly the direction the light travels (the difference of
+        // positions would round it, as path tracing's escaped ray does not).
+        let w = if self.infinite {
+            self.ng
+        } else {
+            (to.p - self.p).normalize()
+        };
+        self.le_toward(scene, w)
     }
 
     /// Radiance this vertex emits in direction `w` (black unless it is on an emitter).
