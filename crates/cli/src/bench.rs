@@ -133,8 +133,11 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     if args.trials == 0 {
         return Err("--trials must be ≥ 1".into());
     }
-    if args.threads.contains(&0) {
-        return Err("--threads: every thread count must be ≥ 1".into());
+    if args.threads.iter().any(|t| !(1..=1024).contains(t)) {
+        return Err(format!(
+            "--threads: every thread count must be 1…1024, got {:?}",
+            args.threads
+        ));
     }
     if args.reference_spp == 0 {
         return Err("--reference-spp must be ≥ 1".into());

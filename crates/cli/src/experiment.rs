@@ -24,8 +24,8 @@ pub struct RunArgs {
     /// nothing but the results directory; `lightlab merge` combines shards written elsewhere.
     #[arg(long, value_parser = parse_shard)]
     shard: Option<(u32, u32)>,
-    /// Worker threads (≥ 1). Default: all cores.
-    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Worker threads (1…1024; each is an OS thread with its own stack). Default: all cores.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
     /// Directory of the cached references (default RESULTS/references/). Point shards with their
     /// own --results at one shared directory so that each reference is rendered once.

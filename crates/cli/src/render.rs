@@ -40,8 +40,8 @@ pub struct RenderArgs {
     /// threads.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Worker threads (≥ 1). Default: all cores.
-    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Worker threads (1…1024; each is an OS thread with its own stack). Default: all cores.
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
     /// Output EXR path (`.exr`, or no extension, which gets one); the PNG preview and JSON
     /// statistics are written beside it with the same stem, so nothing overwrites anything.

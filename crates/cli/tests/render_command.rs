@@ -118,6 +118,16 @@ fn bad_input_is_an_error_not_a_panic() {
             "--spp",
         ),
         (
+            // 100 000 OS threads took over a minute to start before anything rendered.
+            vec![
+                "render".into(),
+                bad_scene.display().to_string(),
+                "--threads".into(),
+                "100000".into(),
+            ],
+            "1..=1024",
+        ),
+        (
             // Refused before rendering: two layers of one name were found only when writing.
             vec![
                 "render".into(),
