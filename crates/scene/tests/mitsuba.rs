@@ -21,9 +21,17 @@ const SENSOR: &str = r#"<sensor type="perspective"><float name="fov" value="40"/
         <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="32"/>
         <rfilter type="box"/></film></sensor>"#;
 
-/// Imports `body` (the contents of `<scene>`) written as `name`.xml, with `defines`.
+/// Imports `body` (the contents of `<scene>`) written as `name`.xml, with `defines`. The image
+/// files it names (`.exr`, `.png`) are created empty beside it — the importer only checks that
+/// they exist; the loader reads them — except those whose names start with `missing`.
 fn import_in(name: &str, body: &str, defines: &[(&str, &str)]) -> Result<Imported, SceneError> {
     let d = dir(name);
+    for part in body.split("value=\"").skip(1) {
+        let file = part.split('"').next().unwrap();
+        if (file.ends_with(".exr") || file.ends_with(".png")) && !file.starts_with("missing") {
+            std::fs::write(d.join(file), b"").unwrap();
+        }
+    }
     let path = d.join("scene.xml");
     std::fs::write(
         &path,
@@ -779,6 +787,18 @@ fn emitters_become_lights() {
             <emitter type="directional"><vector name="direction" value="0, -2, 0"/><rgb name="irradiance" value="4"/></emitter>
             <emitter type="directional"><transform name="to_world"><lookat origin="0, 0, 0" target="1, 0, 0" up="0, 1, 0"/></transform></emitter>"#
         ),
+    );
+    // A missing image is reported at the element naming it (it was reported at line 1, column 1
+    // when the scene was built).
+    let (line, _, m) = err(
+        "missing-envmap",
+        &format!(
+            "{SENSOR}\n<emitter type=\"envmap\"><string name=\"filename\" value=\"missing.exr\"/></emitter>"
+        ),
+    );
+    assert!(
+        line == 5 && m.contains("missing.exr does not exist"),
+        "{line}: {m}"
     );
     let e = i.desc.shapes[0].emission.unwrap();
     assert_eq!(e.radiance, Rgb::new(1.0, 2.0, 3.0));

@@ -26,7 +26,7 @@ pub(crate) fn area(el: &Element) -> Result<EmissionDesc, SceneError> {
 }
 
 /// A top-level `<emitter>`.
-pub(crate) fn light(el: &Element) -> Result<LightDesc, SceneError> {
+pub(crate) fn light(el: &Element, base: &std::path::Path) -> Result<LightDesc, SceneError> {
     let o = Object::new(el)?;
     let raw = match o.ty {
         "point" => {
@@ -93,6 +93,7 @@ pub(crate) fn light(el: &Element) -> Result<LightDesc, SceneError> {
             let file = o
                 .string("filename")?
                 .ok_or_else(|| o.error("an envmap needs a filename"))?;
+            super::existing(&o, base, file)?;
             let scale = o.float_or("scale", 1.0)?;
             if o.boolean("mis_compensation", false)? {
                 return Err(o.error("mis_compensation is not imported"));

@@ -50,6 +50,17 @@ pub fn is_mitsuba(path: &Path) -> bool {
 }
 
 /// Reads the Mitsuba 3 scene in `path`; `defines` are the command line's `-D name=value`.
+/// Checks that `file` (relative to `base`, the scene's directory) exists, so that a missing image
+/// is reported at the element that names it rather than when the scene is built.
+fn existing(o: &Object, base: &Path, file: &str) -> Result<(), SceneError> {
+    let path = base.join(file);
+    if path.is_file() {
+        Ok(())
+    } else {
+        Err(o.error(format!("file {} does not exist", path.display())))
+    }
+}
+
 pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, SceneError> {
     let mut params = xml::Params::new(defines);
     let elements = xml::read_scene(path, &mut params)?;
@@ -58,7 +69,10 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
     let base = path.parent().unwrap_or(Path::new("."));
 
     let mut materials = Materials::default();
-    let mut textures = textures::Textures::default();
+    let mut textures = textures::Textures {
+        once: Once::default(),
+        base: base.to_path_buf(),
+    };
     let mut shapes = Vec::new();
     let mut lights = Vec::new();
     let mut sensor = None;
@@ -122,7 +136,7 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
                     motion: None,
                 });
             }
-            "emitter" => lights.push(emitters::light(el)?),
+            "emitter" => lights.push(emitters::light(el, base)?),
             "medium" | "volume" | "phase" => {
                 return Err(el.at.error(format!(
                     "<{}> is not imported (see scenes/README.md, \"Mitsuba scenes\")",
@@ -148,7 +162,7 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
         desc: SceneDesc {
             camera: sensor.camera,
             materials: materials.0.list,
-            textures: textures.0.list,
+            textures: textures.once.list,
             shapes,
             lights,
         },

@@ -9,15 +9,18 @@ use super::{Once, Refs};
 use crate::SceneError;
 use crate::desc::{ColourDesc, FilterDesc, TextureDesc, WrapDesc};
 
-/// The scene's textures. Bitmap file names stay relative to the scene file, as the loader reads
-/// them.
-#[derive(Default)]
-pub(crate) struct Textures(pub Once<TextureDesc>);
+/// The scene's textures. Bitmap file names stay relative to the scene file (in directory `base`),
+/// as the loader reads them.
+pub(crate) struct Textures {
+    pub once: Once<TextureDesc>,
+    pub base: std::path::PathBuf,
+}
 
 impl Textures {
     /// The name of the texture element `el` (imported on first use).
     pub fn add(&mut self, el: &Element) -> Result<String, SceneError> {
-        self.0.add(el, "texture", || texture(el))
+        let base = &self.base;
+        self.once.add(el, "texture", || texture(el, base))
     }
 }
 
@@ -38,7 +41,7 @@ pub(crate) fn colour(
     }
 }
 
-fn texture(el: &Element) -> Result<TextureDesc, SceneError> {
+fn texture(el: &Element, base: &std::path::Path) -> Result<TextureDesc, SceneError> {
     let o = Object::new(el)?;
     let to_uv = match o.transform("to_uv")? {
         Some(m) => {
@@ -54,6 +57,7 @@ fn texture(el: &Element) -> Result<TextureDesc, SceneError> {
             let file = o
                 .string("filename")?
                 .ok_or_else(|| o.error(format!("{} needs a filename", o.describe())))?;
+            super::existing(&o, base, file)?;
             let filter = match o.string("filter_type")?.unwrap_or("bilinear") {
                 "bilinear" => FilterDesc::Bilinear,
                 "nearest" => FilterDesc::Nearest,
