@@ -109,6 +109,16 @@ fn bad_input_is_an_error_not_a_panic() {
             "max_bouncs",
         ),
         (
+            // 200 bounces asked for 40 000 full-image layers.
+            vec![
+                "render".into(),
+                bad_scene.display().to_string(),
+                "--integrator".into(),
+                "Vcm(max_bounces: 200, strategy_layers: true)".into(),
+            ],
+            "up to 16",
+        ),
+        (
             vec![
                 "render".into(),
                 bad_scene.display().to_string(),

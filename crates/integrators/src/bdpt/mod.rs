@@ -103,9 +103,22 @@ impl Validate for BdptConfig {
                 "strategy_layers needs max_bounces (it bounds the number of strategies)",
             );
         }
+        // (m + 2)(m + 3)/2 − 1 strategies, each a weighted and an unweighted full-image layer: 200
+        // bounces made 40 000 layers, which ran out of memory or took minutes to write.
+        if let (true, Some(m)) = (self.strategy_layers, self.max_bounces)
+            && m > MAX_STRATEGY_LAYER_BOUNCES
+        {
+            return invalid(format!(
+                "strategy_layers allows max_bounces up to {MAX_STRATEGY_LAYER_BOUNCES} (170 \
+                 strategies, 340 layers), got {m}"
+            ));
+        }
         Ok(())
     }
 }
+
+/// The most bounces `strategy_layers` writes a layer pair for every strategy of.
+pub(crate) const MAX_STRATEGY_LAYER_BOUNCES: u32 = 16;
 
 /// How bidirectional path tracing weights its strategies (Veach 1997, ch. 9).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -142,6 +142,15 @@ impl Validate for VcmConfig {
                 "strategy_layers needs max_bounces (it bounds the number of techniques)",
             );
         }
+        if let (true, Some(m)) = (self.strategy_layers, self.max_bounces)
+            && m > crate::bdpt::MAX_STRATEGY_LAYER_BOUNCES
+        {
+            return invalid(format!(
+                "strategy_layers allows max_bounces up to {} (each technique is a weighted and an \
+                 unweighted full-image layer), got {m}",
+                crate::bdpt::MAX_STRATEGY_LAYER_BOUNCES
+            ));
+        }
         Ok(())
     }
 }
