@@ -18,8 +18,10 @@ use std::path::{Path, PathBuf};
 /// Seed of every rendered reference (runs use seeds hashed from the experiment, so they never share it).
 const REFERENCE_SEED: u64 = 0x0005_EED0_F2EF;
 /// Version of what a cached reference holds: 2 since light-traced variances are per sample pass,
-/// k-nearest photon estimates leave out the k-th photon, and the statistics are saved beside.
-const REFERENCE_FORMAT: u32 = 2;
+/// k-nearest photon estimates leave out the k-th photon, and the statistics are saved beside; 3
+/// since BDPT and VCM give an environment seen directly its whole MIS weight (earlier references
+/// of such scenes are too dark there).
+const REFERENCE_FORMAT: u32 = 3;
 
 /// A reference and where it came from.
 pub struct Reference {
