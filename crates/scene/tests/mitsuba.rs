@@ -133,6 +133,14 @@ fn malformed_xml_and_unknown_parameters_are_located() {
         ),
     );
     assert!(m.contains("given twice"), "{m}");
+    // Nesting is bounded (20 000 nested two-sided wrappers overflowed the stack).
+    let deep = format!(
+        "{SENSOR}<bsdf type=\"diffuse\" id=\"d\">{}{}</bsdf>",
+        "<bsdf type=\"twosided\">".repeat(20_000),
+        "</bsdf>".repeat(20_000)
+    );
+    let (_, _, m) = err("deep", &deep);
+    assert!(m.contains("nested more than 64 deep"), "{m}");
     let (_, _, m) = err("no-sensor", "<emitter type=\"constant\"/>");
     assert!(m.contains("no <sensor>"), "{m}");
     let d = dir("old-version");

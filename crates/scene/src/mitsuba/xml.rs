@@ -241,18 +241,28 @@ fn read_file(
                 elements.extend(read_file(&included, params, stack)?);
                 stack.pop();
             }
-            _ => elements.push(element(node, params, &locate)?),
+            _ => elements.push(element(node, params, &locate, 1)?),
         }
     }
     Ok(elements)
 }
 
+/// The deepest nesting of elements read (Mitsuba scenes nest a handful: a shape, its BSDF, a
+/// two-sided wrapper, a texture, a transform): 20 000 nested `twosided` overflowed the stack.
+const MAX_NESTING: usize = 64;
+
 fn element(
     node: roxmltree::Node,
     params: &mut Params,
     locate: &dyn Fn(roxmltree::Node) -> Location,
+    depth: usize,
 ) -> Result<Element, SceneError> {
     let at = locate(node);
+    if depth > MAX_NESTING {
+        return Err(at.error(format!(
+            "elements are nested more than {MAX_NESTING} deep here"
+        )));
+    }
     let mut attrs = Vec::new();
     for a in node.attributes() {
         attrs.push((a.name().to_string(), params.substitute(a.value(), &at)?));
@@ -260,7 +270,7 @@ fn element(
     let mut children = Vec::new();
     for child in node.children() {
         if child.is_element() {
-            children.push(element(child, params, locate)?);
+            children.push(element(child, params, locate, depth + 1)?);
         } else if child.is_text() && !child.text().unwrap_or("").trim().is_empty() {
             return Err(locate(child).error(format!(
                 "text inside <{}> is not part of Mitsuba's format (values go in attributes)",
