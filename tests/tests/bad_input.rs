@@ -260,6 +260,16 @@ fn bad_camera() {
         bad("camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (0, 8))")
             .contains("resolution")
     );
+    // RON's own "Integer is out of bounds" now says what the field holds.
+    let e = bad("camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (-8, 8))");
+    assert!(
+        e.starts_with("scenes/bad.ron:2:") && e.contains("a whole number ≥ 0"),
+        "{e}"
+    );
+    let e = lightlab_integrators::IntegratorConfig::from_ron("Sppm(photons_per_pass: -5)")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("a whole number ≥ 0"), "{e}");
     // Sides beyond 16384 were accepted and overflowed the film's allocation into an abort.
     let e = bad(
         "camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (4294967295, 1))",

@@ -190,7 +190,7 @@ pub fn parse_experiment(text: &str, path: &Path) -> Result<ExperimentDesc, Exper
             path.display(),
             e.span.start.line,
             e.span.start.col,
-            e.code
+            lightlab_scene::ron_message(&e.code)
         ))
     })?;
     desc.check().map_err(|(needle, message)| {

@@ -275,7 +275,7 @@ impl IntegratorConfig {
                 .map_err(|e| ConfigError::Syntax {
                     line: e.span.start.line,
                     col: e.span.start.col,
-                    message: e.code.to_string(),
+                    message: lightlab_scene::ron_message(&e.code),
                 })?;
         config.validate()?;
         Ok(config)

@@ -25,6 +25,16 @@ pub use light::{Light, LightEmission, LightSample, SpotProfile, spot_falloff};
 pub use load::{build_scene, load_scene, parse_scene};
 pub use scene::Scene;
 
+/// A RON error's message, with what is allowed where RON's own words do not say it.
+pub fn ron_message(code: &ron::Error) -> String {
+    match code {
+        ron::Error::IntegerOutOfBounds => "Integer is out of bounds: this field holds a whole \
+            number ≥ 0, at most 4294967295 for counts and sizes (2⁶⁴ − 1 for seeds)"
+            .into(),
+        other => other.to_string(),
+    }
+}
+
 /// The largest image side, in pixels, wherever a resolution is given (scene files, Mitsuba films,
 /// `--resolution`, experiments): a film keeps ≈ 80 bytes per pixel, so 16384² is already 21 GB, and
 /// larger sides overflowed the allocation's size into an abort.

@@ -66,7 +66,7 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
                     e.code
                 )
             } else {
-                e.code.to_string()
+                crate::ron_message(&e.code)
             },
         }
     })?;
