@@ -149,6 +149,15 @@ fn zero_area_emitter() {
         4,
         &["zero area"],
     );
+    // Not emitting, it is allowed (it changes nothing) but said: most likely a typo.
+    let text = format!(
+        "Scene(\n{CAMERA},\n{WHITE}\n{LIGHT}\nshapes: [ Shape(geometry: Sphere(center: (0, 0, 0), radius: 1), material: \"white\"), Shape(geometry: Quad(corner: (0, 0, 0), edge1: (1, 0, 0), edge2: (2, 0, 0)), material: \"white\") ]\n)"
+    );
+    let scene = parse_scene(&text, Path::new("scenes/flat.ron")).unwrap();
+    assert_eq!(
+        scene.warnings,
+        ["scenes/flat.ron: shapes [1] have zero area: no ray can hit them"]
+    );
 }
 
 #[test]

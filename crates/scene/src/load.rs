@@ -152,6 +152,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
     let mut lights = Vec::new();
     let mut features = Features::default();
     let mut motions = Vec::with_capacity(desc.shapes.len());
+    let mut degenerate = Vec::new();
     for (i, ((material, g), s)) in world.into_iter().zip(&desc.shapes).enumerate() {
         let needle = match &s.geometry.0 {
             GeometryRaw::Obj { file, .. } => format!("\"{file}\""),
@@ -190,6 +191,11 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
                 format!("shape {i}: emissive shape has zero area"),
             ));
         }
+        if !(shape.area() > 0.0) {
+            // Allowed (it changes nothing), but most likely a typo: parallel quad edges, a mesh
+            // of collapsed triangles.
+            degenerate.push(i);
+        }
         shapes.push(shape);
         motions.push(s.motion.as_ref().map(|m| motion(m, origin)));
     }
@@ -220,6 +226,12 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
     scene.origin = origin;
     scene.inputs = inputs;
     scene.warnings.extend(features.warning(path));
+    if !degenerate.is_empty() {
+        scene.warnings.push(format!(
+            "{}: shapes {degenerate:?} have zero area: no ray can hit them",
+            path.display()
+        ));
+    }
     Ok(scene)
 }
 
