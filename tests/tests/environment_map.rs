@@ -171,19 +171,7 @@ fn an_environment_alone_is_seen_exactly_by_every_integrator() {
         "Ppm(photons_per_pass: 100)",
         "PhotonMap(photons: 100)",
     ] {
-        let out = render(&sc, config, 4, 3);
-        for i in 0..(sc.camera.width * sc.camera.height) as usize {
-            let m = out.film.mean(i);
-            for (c, want) in [1.0, 0.5, 0.25].into_iter().enumerate() {
-                assert!(
-                    (m[c] - want).abs() <= 1e-6 * want,
-                    "{config}: pixel {i} channel {c}: {} instead of {want} (non-finite: {:?})",
-                    m[c],
-                    out.stats.non_finite
-                );
-            }
-        }
-        assert_eq!(out.stats.non_finite_total(), 0, "{config}");
+        every_pixel_is(&render(&sc, config, 4, 3), config, [1.0, 0.5, 0.25]);
     }
     // A point light with nothing to light: every image is black and defined.
     let dark = lightlab_tests::scene(
@@ -198,10 +186,24 @@ fn an_environment_alone_is_seen_exactly_by_every_integrator() {
         "Sppm(photons_per_pass: 100)",
         "PhotonMap(photons: 100)",
     ] {
-        let out = render(&dark, config, 2, 3);
-        for i in 0..(dark.camera.width * dark.camera.height) as usize {
-            assert_eq!(out.film.mean(i), [0.0; 3], "{config}: pixel {i}");
-        }
-        assert_eq!(out.stats.non_finite_total(), 0, "{config}");
+        every_pixel_is(&render(&dark, config, 2, 3), config, [0.0; 3]);
     }
+}
+
+/// Every pixel of `out` is `want` to 1e-6 relative (exactly, where `want` is 0), and no sample was
+/// non-finite.
+fn every_pixel_is(out: &lightlab_integrators::RenderOutput, config: &str, want: [f64; 3]) {
+    for i in 0..(out.film.width * out.film.height) as usize {
+        let m = out.film.mean(i);
+        for c in 0..3 {
+            assert!(
+                (m[c] - want[c]).abs() <= 1e-6 * want[c],
+                "{config}: pixel {i} channel {c}: {} instead of {} (non-finite: {:?})",
+                m[c],
+                want[c],
+                out.stats.non_finite
+            );
+        }
+    }
+    assert_eq!(out.stats.non_finite_total(), 0, "{config}");
 }

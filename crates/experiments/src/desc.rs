@@ -249,7 +249,7 @@ impl ExperimentDesc {
             }
         }
         if let Some((w, h)) = self.resolution
-            && !(1..=MAX_RESOLUTION).contains(&w) | !(1..=MAX_RESOLUTION).contains(&h)
+            && !((1..=MAX_RESOLUTION).contains(&w) && (1..=MAX_RESOLUTION).contains(&h))
         {
             return err(
                 "resolution",
@@ -280,10 +280,11 @@ impl ExperimentDesc {
         }
         // Each class is a layer named by its expression (a repeated one fails here, not after
         // the reference has rendered).
-        if let Err(e) = lightlab_integrators::paths::Router::check(
-            None,
-            &lightlab_integrators::paths::Layers::Classes(self.classes.clone()),
-        ) && !self.classes.is_empty()
+        if !self.classes.is_empty()
+            && let Err(e) = lightlab_integrators::paths::Router::check(
+                None,
+                &lightlab_integrators::paths::Layers::Classes(self.classes.clone()),
+            )
         {
             return err("classes", format!("classes: {e}"));
         }

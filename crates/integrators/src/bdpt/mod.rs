@@ -98,27 +98,33 @@ impl Validate for BdptConfig {
                 "outliers is a multiple of the pixel's mean and must be finite and > 1, got {f}"
             ));
         }
-        if self.strategy_layers && self.max_bounces.is_none() {
-            return invalid(
-                "strategy_layers needs max_bounces (it bounds the number of strategies)",
-            );
-        }
-        // (m + 2)(m + 3)/2 − 1 strategies, each a weighted and an unweighted full-image layer: 200
-        // bounces made 40 000 layers, which ran out of memory or took minutes to write.
-        if let (true, Some(m)) = (self.strategy_layers, self.max_bounces)
-            && m > MAX_STRATEGY_LAYER_BOUNCES
-        {
-            return invalid(format!(
-                "strategy_layers allows max_bounces up to {MAX_STRATEGY_LAYER_BOUNCES} (170 \
-                 strategies, 340 layers), got {m}"
-            ));
-        }
-        Ok(())
+        check_strategy_layers(self.strategy_layers, self.max_bounces, "strategy")
     }
 }
 
 /// The most bounces `strategy_layers` writes a layer pair for every strategy of.
-pub(crate) const MAX_STRATEGY_LAYER_BOUNCES: u32 = 16;
+const MAX_STRATEGY_LAYER_BOUNCES: u32 = 16;
+
+/// `strategy_layers` (BDPT's strategies, VCM's techniques: `what`) needs `max_bounces`, at most
+/// [`MAX_STRATEGY_LAYER_BOUNCES`]: each strategy is a weighted and an unweighted full-image layer,
+/// (m + 2)(m + 3)/2 − 1 strategies for BDPT, so 200 bounces made 40 000 layers, which ran out of
+/// memory or took minutes to write.
+pub(crate) fn check_strategy_layers(
+    on: bool,
+    max_bounces: Option<u32>,
+    what: &str,
+) -> Result<(), ConfigError> {
+    match (on, max_bounces) {
+        (true, None) => invalid(format!(
+            "strategy_layers needs max_bounces (it bounds the number of {what}s)"
+        )),
+        (true, Some(m)) if m > MAX_STRATEGY_LAYER_BOUNCES => invalid(format!(
+            "strategy_layers allows max_bounces up to {MAX_STRATEGY_LAYER_BOUNCES} (each {what} \
+             is a weighted and an unweighted full-image layer), got {m}"
+        )),
+        _ => Ok(()),
+    }
+}
 
 /// How bidirectional path tracing weights its strategies (Veach 1997, ch. 9).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

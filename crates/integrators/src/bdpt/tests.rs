@@ -37,6 +37,16 @@ pub(crate) fn scene(name: &str) -> Scene {
     lightlab_scene::load_scene(&path).unwrap()
 }
 
+/// The emitter a camera path ended on, as a light subpath's origin: an emitting surface becomes a
+/// light vertex; an environment reached by escaping already is one.
+pub(crate) fn as_light_origin(v: &mut PathVertex) {
+    if v.kind == Kind::Surface {
+        v.kind = Kind::Light { light: v.emitter };
+        v.sb = None;
+        v.delta = false;
+    }
+}
+
 /// The vertices of a full path x₀ (on a light) … x_{n−1} (the camera) split as s light and
 /// t = n − s camera vertices, with every density recomputed from the geometry, as both subpath
 /// generators would have stored them.
@@ -49,13 +59,8 @@ pub(crate) fn split(
     let t = n - s;
     let mut camera: Vec<PathVertex> = z[..t].to_vec();
     let mut light: Vec<PathVertex> = z[t..].iter().rev().copied().collect();
-    // An emitting surface becomes a light vertex; an environment reached by escaping already is.
-    if let Some(y0) = light.first_mut()
-        && y0.kind == Kind::Surface
-    {
-        y0.kind = Kind::Light { light: y0.emitter };
-        y0.sb = None;
-        y0.delta = false;
+    if let Some(y0) = light.first_mut() {
+        as_light_origin(y0);
     }
     for i in 1..camera.len() {
         let prev = if i >= 2 { Some(camera[i - 2]) } else { None };
@@ -182,13 +187,7 @@ fn fast_weights_equal_the_reference_definition() {
         for z in camera_paths_to_lights(&scene, 11) {
             // The path light first, its emitter as a light vertex.
             let mut x: Vec<PathVertex> = z.iter().rev().copied().collect();
-            if x[0].kind == Kind::Surface {
-                x[0].kind = Kind::Light {
-                    light: x[0].emitter,
-                };
-                x[0].sb = None;
-                x[0].delta = false;
-            }
+            as_light_origin(&mut x[0]);
             escaped += x[0].infinite as u32;
             with_delta += x.iter().any(|v| v.delta) as u32;
             for heuristic in [Mis::Balance, Mis::Power, Mis::Uniform] {

@@ -137,21 +137,7 @@ impl Validate for VcmConfig {
                 "outliers is a multiple of the pixel's mean and must be finite and > 1, got {f}"
             ));
         }
-        if self.strategy_layers && self.max_bounces.is_none() {
-            return invalid(
-                "strategy_layers needs max_bounces (it bounds the number of techniques)",
-            );
-        }
-        if let (true, Some(m)) = (self.strategy_layers, self.max_bounces)
-            && m > crate::bdpt::MAX_STRATEGY_LAYER_BOUNCES
-        {
-            return invalid(format!(
-                "strategy_layers allows max_bounces up to {} (each technique is a weighted and an \
-                 unweighted full-image layer), got {m}",
-                crate::bdpt::MAX_STRATEGY_LAYER_BOUNCES
-            ));
-        }
-        Ok(())
+        crate::bdpt::check_strategy_layers(self.strategy_layers, self.max_bounces, "technique")
     }
 }
 

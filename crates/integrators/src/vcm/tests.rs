@@ -5,10 +5,10 @@ use super::merge::merge_weight;
 use super::mis::{Heuristic, Quantities, Technique, Techniques, reference_weight};
 use super::*;
 use crate::bdpt::tests::{
-    bdpt, camera_paths_to_lights, flat_interface, production_paths, scene, split, weight_scenes,
+    as_light_origin, bdpt, camera_paths_to_lights, flat_interface, production_paths, scene, split,
+    weight_scenes,
 };
 use crate::bdpt::{Bdpt, Mis};
-use crate::walk::Kind;
 
 /// Every variant and heuristic, with η = π r² N small and large against the paths' densities and
 /// one or three light paths per pixel, each with (η, ℓ) themselves (not as the heuristic sums
@@ -73,15 +73,9 @@ fn recursive_weights_equal_the_definition() {
         let mut merges = 0;
         for z in camera_paths_to_lights(&scene, 11) {
             let n = z.len();
-            // The path light first, its emitter as a light vertex (an environment is one).
+            // The path light first, its emitter as a light vertex.
             let mut x: Vec<PathVertex> = z.iter().rev().copied().collect();
-            if x[0].kind == Kind::Surface {
-                x[0].kind = Kind::Light {
-                    light: x[0].emitter,
-                };
-                x[0].sb = None;
-                x[0].delta = false;
-            }
+            as_light_origin(&mut x[0]);
             for (t, eta) in all_techniques() {
                 let mut sum = 0.0f64;
                 for s in 0..n {
