@@ -377,7 +377,8 @@ fn truncated_files_and_byte_order_marks() {
     assert!(parse_scene(&format!("\u{feff}{full}"), Path::new("bom.ron")).is_ok());
 }
 
-/// Mesh files: a directory is not a mesh, and a malformed OBJ line is reported with its number.
+/// Mesh files: a directory is not a mesh, and a malformed OBJ line (a vertex, a face, or a face's
+/// vertex, texture-coordinate or normal index) is reported with its number.
 #[test]
 fn mesh_file_errors_name_the_problem() {
     let dir = std::env::temp_dir().join(format!("lightlab-obj-{}", std::process::id()));
@@ -414,6 +415,24 @@ fn mesh_file_errors_name_the_problem() {
             "v 0 0 0\nv 1 0 0\nv 0 1 0\n# a face\nf 1 2 9\n",
             5,
             "vertex 9",
+        ),
+        (
+            "n.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n",
+            5,
+            "normal 2, but the file has 1",
+        ),
+        (
+            "t.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/-2 3/1\n",
+            5,
+            "texture coordinate that does not exist",
+        ),
+        (
+            "x.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/n\n",
+            6,
+            "normal index is not an integer",
         ),
     ] {
         std::fs::write(dir.join("meshes").join(name), body).unwrap();

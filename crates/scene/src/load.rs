@@ -775,9 +775,12 @@ pub(crate) fn load_obj(file: &Path, use_normals: bool, flip_v: bool) -> Result<M
 fn check_obj_syntax(file: &Path) -> Result<(), String> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| format!("cannot read mesh file {}: {e}", file.display()))?;
-    let mut vertices = 0usize;
-    // The face line with the largest (positive) vertex index, checked once all vertices are read.
-    let mut largest: Option<(usize, usize, String)> = None;
+    // What a face corner `v/vt/vn` refers to: vertices, texture coordinates, normals.
+    const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    let mut counts = [0usize; 3];
+    // Per kind, the face line with the largest (positive) index, checked once the file is read
+    // (OBJ allows faces before the data they refer to).
+    let mut largest: [Option<(usize, usize, String)>; 3] = [None, None, None];
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         let bad = |what: &str| {
@@ -794,36 +797,57 @@ fn check_obj_syntax(file: &Path) -> Result<(), String> {
                 if coords.len() < 3 || coords.iter().take(3).any(|w| w.parse::<f64>().is_err()) {
                     return bad("a vertex needs three numbers");
                 }
-                vertices += 1;
+                counts[0] += 1;
             }
+            Some("vt") => counts[1] += 1,
+            Some("vn") => counts[2] += 1,
             Some("f") => {
                 let corners: Vec<&str> = words.collect();
                 if corners.len() < 3 {
                     return bad("a face needs at least three vertices");
                 }
                 for c in corners {
-                    let index = c.split('/').next().unwrap_or("");
-                    match index.parse::<i64>() {
-                        // Negative indices count back from the vertices read so far.
-                        Ok(i) if i < 0 && (i.unsigned_abs() as usize) <= vertices => {}
-                        Ok(i) if i > 0 => {
-                            if largest.as_ref().is_none_or(|l| i as usize > l.0) {
-                                largest = Some((i as usize, n + 1, line.trim().to_string()));
+                    for (kind, index) in c.split('/').take(3).enumerate() {
+                        if kind > 0 && index.is_empty() {
+                            continue;
+                        }
+                        match index.parse::<i64>() {
+                            // Negative indices count back from the items read so far.
+                            Ok(i) if i < 0 && (i.unsigned_abs() as usize) <= counts[kind] => {}
+                            Ok(i) if i > 0 => {
+                                if largest[kind].as_ref().is_none_or(|l| i as usize > l.0) {
+                                    largest[kind] =
+                                        Some((i as usize, n + 1, line.trim().to_string()));
+                                }
+                            }
+                            Ok(_) => {
+                                return bad(&format!(
+                                    "a face refers to a {} that does not exist",
+                                    KINDS[kind]
+                                ));
+                            }
+                            Err(_) => {
+                                return bad(&format!(
+                                    "a face's {} index is not an integer",
+                                    KINDS[kind]
+                                ));
                             }
                         }
-                        Ok(_) => return bad("a face refers to a vertex that does not exist"),
-                        Err(_) => return bad("a face's vertex index is not an integer"),
                     }
                 }
             }
             _ => {}
         }
     }
-    match largest {
-        Some((i, n, line)) if i > vertices => Err(format!(
-            "mesh file {}:{n}: a face refers to vertex {i}, but the file has {vertices}: {line}",
-            file.display()
-        )),
-        _ => Ok(()),
+    for (kind, largest) in largest.into_iter().enumerate() {
+        if let Some((i, n, line)) = largest.filter(|l| l.0 > counts[kind]) {
+            return Err(format!(
+                "mesh file {}:{n}: a face refers to {} {i}, but the file has {}: {line}",
+                file.display(),
+                KINDS[kind],
+                counts[kind]
+            ));
+        }
     }
+    Ok(())
 }
