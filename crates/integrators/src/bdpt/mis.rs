@@ -178,7 +178,7 @@ pub(crate) struct PathDensities {
     pub light: Vec<f64>,
     /// C_j.
     camera: Vec<f64>,
-    /// Whether x₀ is on a point or spot light.
+    /// Whether x₀ is on a light no ray can hit (point, spot, directional).
     pub delta_light: bool,
 }
 

@@ -248,7 +248,8 @@ pub(crate) fn bdpt(max_bounces: u32) -> Bdpt {
 /// subpath `light` (x₀ on the light … x_{n−1}) when its samples are chosen to: the camera ray
 /// through x_{n−1}'s raster position, at every diffuse vertex the inverse of the cosine warp
 /// toward the next vertex, at every delta vertex the lobe the light path took. `None` unless
-/// the walk retraces every vertex.
+/// the walk retraces every vertex — but x₀ on a light no ray can hit (point, spot,
+/// directional), where the camera subpath stops at x₁ (n vertices, no s = 0 strategy).
 pub(crate) fn camera_through(
     bdpt: &Bdpt,
     scene: &Scene,
@@ -292,18 +293,42 @@ pub(crate) fn camera_through(
         &mut camera,
         &mut Counters::default(),
     );
-    let retraced = camera.len() == n + 1
-        && (1..=n).all(|j| camera[j].p.distance(light[n - j].p) < 1e-3)
-        && camera[n].emitter != NO_LIGHT;
+    let hittable = light[0]
+        .light()
+        .is_some_and(|l| !scene.lights[l as usize].is_delta());
+    let retraced = if hittable {
+        camera.len() == n + 1
+            && (1..=n).all(|j| camera[j].p.distance(light[n - j].p) < 1e-3)
+            && camera[n].emitter != NO_LIGHT
+    } else {
+        camera.len() >= n && (1..n).all(|j| camera[j].p.distance(light[n - j].p) < 1e-3)
+    };
+    camera.truncate(if hittable { n + 1 } else { n });
     retraced.then_some(camera)
+}
+
+/// The strategies (s, t = m + 1 − s) that can make the path of the `m` light vertices and the
+/// camera subpath retracing them (`camera_through`): s = 0 where the camera subpath reaches
+/// the light, every connection that joins two non-delta vertices.
+pub(crate) fn strategies(light: &[PathVertex], camera: &[PathVertex]) -> Vec<usize> {
+    let m = light.len();
+    (0..=m)
+        .filter(|&s| {
+            if s == 0 {
+                camera.len() == m + 1
+            } else {
+                !(light[s - 1].delta || camera[m - s].delta)
+            }
+        })
+        .collect()
 }
 
 /// Σ over the strategies that can make the path `light` + camera of their MIS weights, from
 /// the densities the two production walks stored.
 fn weight_sum(scene: &Scene, light: &[PathVertex], camera: &[PathVertex], heuristic: Mis) -> f64 {
     let m = light.len();
-    (0..=m)
-        .filter(|&s| s == 0 || !(light[s - 1].delta || camera[m - s].delta))
+    strategies(light, camera)
+        .into_iter()
         .map(|s| {
             let t = m + 1 - s;
             let sampled = match (s, t) {
@@ -365,6 +390,40 @@ pub(crate) fn production_paths(
     out
 }
 
+/// Spheres on a plane (one diffuse, one glass) in front of a diffuse wall, lit by a light no
+/// ray can hit: a point light, a spot light with a soft edge, or a directional light.
+pub(crate) fn delta_light_scenes() -> Vec<(&'static str, Scene)> {
+    [
+        ("point light", "Point(position: (0.5, 2.5, 1.5), intensity: (10, 10, 10))"),
+        (
+            "spot light",
+            "Spot(position: (1, 3, 1.5), target: (0, 0.3, 0), intensity: (20, 20, 20), \
+             cone_angle: 40, falloff_start: 25)",
+        ),
+        (
+            "directional light",
+            "Directional(direction: (-0.3, -1, -0.4), irradiance: (3, 3, 3))",
+        ),
+    ]
+    .into_iter()
+    .map(|(name, light)| {
+        let text = format!(
+            r#"Scene(camera: Camera(eye: (0, 1, 4), target: (0, 0.5, 0), fov: 50, resolution: (256, 256)),
+                materials: {{ "white": Diffuse(albedo: (0.7, 0.7, 0.7)), "glass": Dielectric(ior: 1.5) }},
+                shapes: [
+                    Shape(geometry: Quad(corner: (-3, 0, -3), edge1: (0, 0, 6), edge2: (6, 0, 0)), material: "white"),
+                    Shape(geometry: Quad(corner: (-3, 0, -1.5), edge1: (6, 0, 0), edge2: (0, 3, 0)), material: "white"),
+                    Shape(geometry: Sphere(center: (-0.6, 0.5, 0), radius: 0.5), material: "white"),
+                    Shape(geometry: Sphere(center: (0.6, 0.5, 0), radius: 0.5), material: "glass"),
+                ],
+                lights: [ {light} ])"#
+        );
+        let scene = lightlab_scene::parse_scene(&text, std::path::Path::new(name)).unwrap();
+        (name, scene)
+    })
+    .collect()
+}
+
 /// One refractive interface: a light under a diffuse ceiling above a flat glass surface
 /// (η = 1.5 below it), a diffuse floor in the glass and the camera in the glass too — the
 /// path `L D S D E` crosses the interface once.
@@ -385,10 +444,12 @@ pub(crate) fn flat_interface(material: &str) -> Scene {
 }
 
 /// The weights of all strategies sum to one with the densities the walks themselves store —
-/// through a mirror, one flat refractive interface, the glass sphere (two interfaces), and for
-/// an emitter seen directly —
+/// through a mirror, one flat refractive interface, the glass sphere (two interfaces), for
+/// an emitter seen directly, and from point, spot and directional lights —
 /// for the balance and power heuristics and uniform weights. (It fails when the two walks
-/// disagree on a delta vertex's ratio of densities.)
+/// disagree on a delta vertex's ratio of densities.) On paths without specular vertices each
+/// weight is also its definition (`mis::reference_weight`), which covers the delta lights'
+/// own densities (their origins and first segments).
 #[test]
 fn production_weights_sum_to_one_through_specular_vertices() {
     let with_delta = |p: &[PathVertex]| p.iter().any(|v| v.delta);
@@ -405,37 +466,63 @@ fn production_weights_sum_to_one_through_specular_vertices() {
         lightlab_scene::parse_scene(&text, std::path::Path::new("mirror-sphere.ron")).unwrap()
     };
     let directly = |p: &[PathVertex]| p.len() == 1;
-    for (name, scene, keep, vertices) in [
-        (
-            "mirror sphere",
-            mirror_floor,
-            &with_delta as &dyn Fn(&[PathVertex]) -> bool,
-            6,
-        ),
-        (
-            "flat interface",
-            flat_interface("Dielectric(ior: 1.5)"),
-            &with_delta,
-            6,
-        ),
-        (
-            "glass sphere",
-            super::tests::scene("caustic-sphere.ron"),
-            &with_delta,
-            6,
-        ),
-        // An emitter seen directly: s = 0 (the camera ray hits it) and s = t = 1.
-        (
-            "emitter seen directly",
-            super::tests::scene("cornell-box.ron"),
-            &directly,
-            1,
-        ),
-    ] {
+    let longer = |p: &[PathVertex]| p.len() >= 3;
+    for (name, scene, keep, vertices) in
+        [
+            (
+                "mirror sphere",
+                mirror_floor,
+                &with_delta as &dyn Fn(&[PathVertex]) -> bool,
+                6,
+            ),
+            (
+                "flat interface",
+                flat_interface("Dielectric(ior: 1.5)"),
+                &with_delta,
+                6,
+            ),
+            (
+                "glass sphere",
+                super::tests::scene("caustic-sphere.ron"),
+                &with_delta,
+                6,
+            ),
+            // An emitter seen directly: s = 0 (the camera ray hits it) and s = t = 1.
+            (
+                "emitter seen directly",
+                super::tests::scene("cornell-box.ron"),
+                &directly,
+                1,
+            ),
+        ]
+        .into_iter()
+        .chain(
+            // Lights no ray can hit (no s = 0): paths through the glass, and paths of two or more
+            // scattering vertices.
+            delta_light_scenes()
+                .into_iter()
+                .map(|(name, scene)| {
+                    (
+                        name,
+                        scene,
+                        &with_delta as &dyn Fn(&[PathVertex]) -> bool,
+                        5,
+                    )
+                })
+                .chain(delta_light_scenes().into_iter().map(|(name, scene)| {
+                    (name, scene, &longer as &dyn Fn(&[PathVertex]) -> bool, 5)
+                })),
+        )
+    {
         let bdpt = bdpt(6);
         let paths = production_paths(&scene, &bdpt, vertices, keep, 40);
         assert!(paths.len() >= 20, "{name}: only {} paths", paths.len());
         for (light, camera) in &paths {
+            // The path light first: the light subpath and the lens. Its weights by definition
+            // where no vertex is specular (`reference_weight` takes a density through a delta
+            // vertex as 1; the walks store the true ones, see the finite-difference test below).
+            let x: Vec<PathVertex> = light.iter().chain(&camera[..1]).copied().collect();
+            let diffuse = !x.iter().any(|v| v.delta);
             for heuristic in [Mis::Balance, Mis::Power, Mis::Uniform] {
                 let sum = weight_sum(&scene, light, camera, heuristic);
                 assert!(
@@ -443,6 +530,21 @@ fn production_weights_sum_to_one_through_specular_vertices() {
                     "{name}, {heuristic:?}: a path of {} light vertices has weights summing to {sum}",
                     light.len()
                 );
+                for s in strategies(light, camera).into_iter().filter(|_| diffuse) {
+                    let (t, m) = (light.len() + 1 - s, light.len());
+                    let sampled = match (s, t) {
+                        (_, 1) => Some(camera[0]),
+                        (1, _) => Some(light[0]),
+                        _ => None,
+                    };
+                    let fast = Bdpt::mis_weight(&scene, light, camera, sampled, s, t, heuristic);
+                    let reference = mis::reference_weight(&scene, &x, s, heuristic);
+                    assert!(
+                        (fast as f64 - reference).abs() <= 2e-3 * reference.max(1e-6),
+                        "{name}, {heuristic:?}, (s, t) = ({s}, {t}) of {m} light vertices: \
+                         production {fast}, definition {reference}"
+                    );
+                }
             }
         }
     }

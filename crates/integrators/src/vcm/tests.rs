@@ -5,8 +5,8 @@ use super::merge::merge_weight;
 use super::mis::{Heuristic, Quantities, Technique, Techniques, reference_weight};
 use super::*;
 use crate::bdpt::tests::{
-    as_light_origin, bdpt, camera_paths_to_lights, flat_interface, production_paths, scene, split,
-    weight_scenes,
+    as_light_origin, bdpt, camera_paths_to_lights, delta_light_scenes, flat_interface,
+    production_paths, scene, split, strategies, weight_scenes,
 };
 use crate::bdpt::{Bdpt, Mis};
 
@@ -159,8 +159,9 @@ fn production_sum(
         quantities(t, light, true, scene),
         quantities(t, camera, false, scene),
     );
-    let connections: f64 = (0..=m)
-        .filter(|&s| s == 0 || (t.connect && !(light[s - 1].delta || camera[m - s].delta)))
+    let connections: f64 = strategies(light, camera)
+        .into_iter()
+        .filter(|&s| s == 0 || t.connect)
         .map(|s| {
             let tc = m + 1 - s;
             let sampled = match (s, tc) {
@@ -187,7 +188,8 @@ fn production_sum(
 
 /// With the densities the walks themselves store (delta vertices as `delta_densities` writes
 /// them) the weights of all connections and merges sum to one — through a mirror, one flat
-/// refractive interface, the glass sphere, glossy walls, and for an emitter seen directly — for
+/// refractive interface, the glass sphere, glossy walls, for an emitter seen directly, and from
+/// point, spot and directional lights — for
 /// every variant, both heuristics and two radii; and without merges (`Vc`) every connection's
 /// weight is BDPT's.
 #[test]
@@ -195,6 +197,7 @@ fn production_weights_sum_to_one_and_vc_is_bdpt() {
     let with_delta = |p: &[PathVertex]| p.iter().any(|v| v.delta);
     let any = |p: &[PathVertex]| p.len() >= 2;
     let directly = |p: &[PathVertex]| p.len() == 1;
+    let longer = |p: &[PathVertex]| p.len() >= 3;
     let mirror_sphere = {
         let text = std::fs::read_to_string(
             std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -208,8 +211,8 @@ fn production_weights_sum_to_one_and_vc_is_bdpt() {
         lightlab_scene::parse_scene(&text, std::path::Path::new("mirror-sphere.ron")).unwrap()
     };
     type Keep<'a> = &'a dyn Fn(&[PathVertex]) -> bool;
-    let cases: [(&str, Scene, Keep, u32); 5] = [
-        ("mirror sphere", mirror_sphere, &with_delta, 6),
+    let cases = [
+        ("mirror sphere", mirror_sphere, &with_delta as Keep, 6u32),
         (
             "flat interface",
             flat_interface("Dielectric(ior: 1.5)"),
@@ -224,7 +227,19 @@ fn production_weights_sum_to_one_and_vc_is_bdpt() {
             &directly,
             1,
         ),
-    ];
+    ]
+    .into_iter()
+    .chain(
+        // Lights no ray can hit: no s = 0, and a delta light's vertex weighs as `delta_light` says.
+        delta_light_scenes()
+            .into_iter()
+            .map(|(name, scene)| (name, scene, &with_delta as Keep, 5))
+            .chain(
+                delta_light_scenes()
+                    .into_iter()
+                    .map(|(name, scene)| (name, scene, &longer as Keep, 5)),
+            ),
+    );
     for (name, scene, keep, vertices) in cases {
         let bdpt = bdpt(6);
         let paths = production_paths(&scene, &bdpt, vertices, keep, 40);
@@ -245,8 +260,7 @@ fn production_weights_sum_to_one_and_vc_is_bdpt() {
                     quantities(&t, camera, false, &scene),
                 );
                 let m = light.len();
-                for s in (0..=m).filter(|&s| s == 0 || !(light[s - 1].delta || camera[m - s].delta))
-                {
+                for s in strategies(light, camera) {
                     let tc = m + 1 - s;
                     let sampled = match (s, tc) {
                         (_, 1) => Some(camera[0]),
