@@ -11,7 +11,7 @@ use lightlab_experiments::metrics::{REL_EPSILON, errors};
 use lightlab_experiments::reference::reference;
 use lightlab_experiments::runner::load_scene;
 use lightlab_integrators::{Budget, IntegratorConfig};
-use lightlab_testkit::timing::{cpu_model, peak_rss_bytes, timed};
+use lightlab_testkit::timing::{build_simd, cpu_model, peak_rss_bytes, timed};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -92,9 +92,11 @@ struct Row {
     rel_mse_se: Option<f64>,
     rel_mse_times_spp: f64,
     efficiency: Option<f64>,
-    /// The machine: its CPU model (`None` where /proc/cpuinfo does not name it) and logical CPUs.
+    /// The machine: its CPU model (`None` where /proc/cpuinfo does not name it) and logical CPUs;
+    /// and the widest SIMD instruction set the build was compiled for.
     cpu_model: Option<String>,
     logical_cpus: usize,
+    build_simd: &'static str,
 }
 
 /// `INTEGRATOR@SPP`, checked: the integrator as written, its settings and its spp.
@@ -157,10 +159,11 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     let mut rows = Vec::new();
     let cpu_model = cpu_model();
     let logical_cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
-    // Rates and ratios hold for one machine: say which.
+    // Rates and ratios hold for one machine and one build: say which.
     println!(
-        "Machine: {logical_cpus} logical CPUs, {}\n",
-        cpu_model.as_deref().unwrap_or("CPU model unknown")
+        "Machine: {logical_cpus} logical CPUs, {}; this build uses {} vectors\n",
+        cpu_model.as_deref().unwrap_or("CPU model unknown"),
+        build_simd()
     );
     println!(
         "| scene | integrator | threads | spp | wall s | CPU s | M paths / CPU-s | M photon paths / CPU-s | M rays / s | rays per path | relMSE | relMSE × spp | efficiency |"
@@ -251,6 +254,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     efficiency: (cpu > 0.0).then(|| 1.0 / (rel_mse * cpu)),
                     cpu_model: cpu_model.clone(),
                     logical_cpus,
+                    build_simd: build_simd(),
                 };
                 let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map_or("—".into(), f);
                 println!(

@@ -44,8 +44,13 @@ fn bench_measures_every_integrator_and_thread_count() {
     assert!(first.status.success(), "{stderr}");
     assert!(stderr.contains("rendered now"), "{stderr}");
     let table = String::from_utf8_lossy(&first.stdout);
-    // The machine is named: ratios against other renderers depend on the CPU.
-    assert!(table.starts_with("Machine: "), "{table}");
+    // The machine and the build's vector width are named: ratios against other renderers
+    // depend on both.
+    let machine = table.lines().next().unwrap();
+    assert!(
+        machine.starts_with("Machine: ") && machine.contains("; this build uses "),
+        "{table}"
+    );
     assert_eq!(
         table
             .lines()
@@ -88,6 +93,11 @@ fn bench_measures_every_integrator_and_thread_count() {
         );
         assert_eq!(one["cpu_seconds_per_trial"].as_array().unwrap().len(), 2);
         assert!(one["logical_cpus"].as_u64().unwrap() >= 1);
+        let simd = one["build_simd"].as_str().unwrap();
+        assert!(
+            ["AVX-512", "AVX2", "AVX", "SSE4.2", "SSE2", "NEON", "none"].contains(&simd),
+            "{simd}"
+        );
         assert!(
             one["cpu_model"].is_string() || one["cpu_model"].is_null(),
             "{}",

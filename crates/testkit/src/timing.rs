@@ -37,6 +37,28 @@ pub fn cpu_model() -> Option<String> {
         .map(|(_, name)| name.trim().to_string())
 }
 
+/// The widest SIMD instruction set this build may use, fixed when it was compiled (`-C target-cpu`
+/// or `-C target-feature`; the default x86-64 target allows SSE2 only). Speed figures hold for one
+/// build as they do for one machine: on this project's machines an AVX-512 or AVX2 build of the
+/// same code renders 3–10 % faster, with identical images (BENCHMARKS.md).
+pub fn build_simd() -> &'static str {
+    if cfg!(target_feature = "avx512f") {
+        "AVX-512"
+    } else if cfg!(target_feature = "avx2") {
+        "AVX2"
+    } else if cfg!(target_feature = "avx") {
+        "AVX"
+    } else if cfg!(target_feature = "sse4.2") {
+        "SSE4.2"
+    } else if cfg!(target_feature = "sse2") {
+        "SSE2"
+    } else if cfg!(target_feature = "neon") {
+        "NEON"
+    } else {
+        "none"
+    }
+}
+
 /// Peak resident memory of the process in bytes (VmHWM of /proc/self/status).
 pub fn peak_rss_bytes() -> u64 {
     let status =
