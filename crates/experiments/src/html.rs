@@ -293,19 +293,17 @@ fn escape(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
-/// This machine, as a report names it: CPU model, logical cores, operating system.
+/// This machine and build, as a report names them: CPU model, logical cores, operating system and
+/// the widest SIMD instruction set the build was compiled for.
 pub fn machine() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|m| m.trim().to_string())
-        })
-        .unwrap_or_else(|| std::env::consts::ARCH.into());
+    let cpu =
+        lightlab_testkit::timing::cpu_model().unwrap_or_else(|| std::env::consts::ARCH.into());
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
-    format!("{cpu}, {cores} logical cores, {}", std::env::consts::OS)
+    format!(
+        "{cpu}, {cores} logical cores, {}, {} build",
+        std::env::consts::OS,
+        lightlab_testkit::timing::build_simd()
+    )
 }
 
 #[cfg(test)]

@@ -110,7 +110,7 @@ pub struct RunRecord {
     #[serde(default)]
     pub pixel_limit: PixelLimit,
     pub lightlab_version: String,
-    /// The machine it ran on (CPU model, logical cores, operating system).
+    /// The machine it ran on (CPU model, logical cores, operating system, the build's SIMD width).
     #[serde(default)]
     pub machine: String,
     /// A radiosity run's discretisation and solve.
