@@ -420,7 +420,15 @@ mod tests {
             ("PhotonMap(photons: 0)", "photons"),
             (
                 "PhotonMap(gather: Nearest(k: 0, max_radius: Relative(0.1)))",
-                "k must",
+                "k must be at least 3, got 0",
+            ),
+            (
+                "PhotonMap(gather: Nearest(k: 1, max_radius: Relative(0.1)))",
+                "none for k = 1",
+            ),
+            (
+                "PhotonMap(caustic_gather: Nearest(k: 2, max_radius: Relative(0.1)))",
+                "unbounded for k = 2",
             ),
             (
                 "PhotonMap(caustic_gather: Radius(Absolute(inf)))",

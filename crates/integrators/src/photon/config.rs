@@ -44,7 +44,9 @@ pub enum Gather {
     Radius(Length),
     /// The k nearest photons (Jensen 2001, §7.1), no farther than `max_radius`.
     Nearest {
-        /// Photons gathered (the estimate uses the k − 1 inside the k-th one's distance).
+        /// Photons gathered (the estimate uses the k − 1 inside the k-th one's distance), at
+        /// least 3: for a constant density λ the estimate (k − 1)/(π r_k²) has mean λ and
+        /// variance λ²/(k − 2), zero for k = 1 and unbounded for k = 2.
         k: u32,
         /// Largest search radius.
         max_radius: Length,
@@ -109,8 +111,12 @@ impl Gather {
         match self {
             Gather::Radius(r) => r.check(&format!("{what} radius")),
             Gather::Nearest { k, max_radius } => {
-                if k == 0 {
-                    return Err(format!("{what}: k must be at least 1"));
+                if k < 3 {
+                    return Err(format!(
+                        "{what}: k must be at least 3, got {k}: the estimate sums the k − 1 \
+                         photons inside the k-th one's distance (none for k = 1), and its \
+                         variance λ²/(k − 2) is unbounded for k = 2"
+                    ));
                 }
                 max_radius.check(&format!("{what} max_radius"))
             }
