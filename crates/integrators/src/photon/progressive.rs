@@ -12,12 +12,15 @@
 //!   N' = N + αM,   r'² = r² · (N + αM)/(N + M),   τ' = (τ + Φ_new) · r'²/r²,
 //!
 //! and its photon estimate after i passes is τ / (i · π r²) (photon fluxes are already divided by
-//! the photons per pass). If every pass brings about the same M, N_i ≈ αMi and
-//! r_i² = r₁² Π_j (1 + α(j − 1))/(α(j − 1) + 1 + (1 − α)) ∝ i^(α−1), which is the schedule
-//! `Global` applies to every pixel exactly: r²_{i+1} = r²_i (i + α)/(i + 1) (Knaus & Zwicker 2011,
-//! eq. 19), with the image the mean of the independent per-pass estimates. For `Global` Knaus and
-//! Zwicker predict MSE ∝ i^(−α) asymptotically where variance dominates, and the best rate,
-//! i^(−2/3), at α = 2/3.
+//! the photons per pass). The photons a pass brings fall with the disk's area, M_i ≈ λπr_i², and
+//! then r_i² ∝ i^(α−1) (were M constant, the rate would be i^((α−1)/α) instead). That is the rate
+//! of the schedule `Global` applies to every pixel exactly, r²_{i+1} = r²_i (i + α)/(i + 1)
+//! (Knaus & Zwicker 2011, eq. 19), with the image the mean of the independent per-pass estimates.
+//! The constants differ: `Local` shrinks by α at the first pass already (N = 0), and its r²
+//! settles at about α times `Global`'s from the same r₁ (0.667–0.679 in a simulation with
+//! 5–500 photons per disk expected at r₁ and α = 2/3), so the two compare at equal radii with
+//! `Global`'s r₁ smaller by √α. For `Global` Knaus and Zwicker predict MSE ∝ i^(−α)
+//! asymptotically where variance dominates, and the best rate, i^(−2/3), at α = 2/3.
 //!
 //! What it converges to. `Sppm` converges to the pixel's measurement (the radiance integrated over
 //! the pixel's box filter and the lens). `Ppm` keeps one camera path per pixel, so it converges to
