@@ -310,6 +310,35 @@ pub fn machine() -> String {
 mod tests {
     use super::*;
 
+    /// Every field of a fit that the report's script reads (`f.fit.NAME`) is one `Fit` serialises:
+    /// a misspelt name shows "—" in every row instead of failing.
+    #[test]
+    fn the_report_reads_fit_fields_that_exist() {
+        let fit = crate::metrics::Fit {
+            intercept: 0.0,
+            slope: -1.0,
+            slope_ci95: 0.1,
+            points: 3,
+            chi2_per_dof: Some(1.0),
+            excluded: Vec::new(),
+        };
+        let fields = serde_json::to_value(&fit).unwrap();
+        let read: Vec<&str> = TEMPLATE
+            .split("f.fit.")
+            .skip(1)
+            .map(|rest| {
+                let end = rest
+                    .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                    .unwrap_or(rest.len());
+                &rest[..end]
+            })
+            .collect();
+        assert!(read.len() >= 4, "{read:?}");
+        for name in read {
+            assert!(fields.get(name).is_some(), "the report reads f.fit.{name}");
+        }
+    }
+
     #[test]
     fn half_floats_round_trip_to_their_precision() {
         let values = [[0.0, 1.0, -2.5], [1e-3, 65504.0, 0.3333]];
