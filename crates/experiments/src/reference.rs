@@ -247,7 +247,7 @@ pub fn load_image(path: &Path) -> Result<Image, String> {
 
 /// Reads an image from an EXR another program may have written (see `ReferenceDesc::Exr`): the
 /// layer `layer`, or `radiance`, or the unnamed R, G, B channels, or the only RGB layer; its
-/// variance from the layer `variance`/`Variance`, or from the image of `variance_file`.
+/// variance of the mean from the layer `variance`, or from the image of `variance_file`.
 pub fn load_foreign(
     path: &Path,
     layer: Option<&str>,
@@ -286,7 +286,9 @@ pub fn load_foreign(
             }
             Some(var.mean)
         }
-        None => find(&layers, "variance").or_else(|| find(&layers, "Variance")),
+        // Not pbrt-v4's `Variance` layer: it is the variance of one sample (S/(n − 1)), not of
+        // the pixel mean, and the file does not say n.
+        None => find(&layers, "variance"),
     };
     Ok(Image {
         width,

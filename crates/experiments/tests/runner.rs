@@ -361,7 +361,8 @@ fn summary_efficiency_is_a_ratio_of_means() {
 
 /// References from other renderers: a single-part EXR with plain R, G, B channels (as Mitsuba 3
 /// and pbrt-v4 write them) with its variance in a separate file, and a single-part file whose
-/// layers are channel prefixes (`radiance.R`, `variance.R`), give the same image and variance.
+/// layers are channel prefixes (`radiance.R`, `variance.R`), give the same image and variance;
+/// pbrt-v4's per-sample `Variance` layer is not taken for the variance of the mean.
 #[test]
 fn foreign_exr_references_load() {
     use exr::prelude::*;
@@ -407,6 +408,27 @@ fn foreign_exr_references_load() {
     // A file with several unnamed candidates and no `radiance` says which layers it has.
     let e = load_foreign(&dir.join("prefixed.exr"), Some("beauty"), None).unwrap_err();
     assert!(e.contains("\"radiance\"") && e.contains("beauty"), "{e}");
+    // pbrt-v4's `Variance` layer is the variance of one sample, not of the mean: not read as one.
+    let pbrt = Layer::new(
+        Vec2(w, h),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(smallvec::smallvec![
+            channel("R", &|x, y| value(x, y).0),
+            channel("G", &|x, y| value(x, y).1),
+            channel("B", &|x, y| value(x, y).2),
+            channel("Variance.R", &|x, y| var(x, y).0),
+            channel("Variance.G", &|x, y| var(x, y).1),
+            channel("Variance.B", &|x, y| var(x, y).2),
+        ]),
+    );
+    Image::from_layer(pbrt)
+        .write()
+        .to_file(dir.join("pbrt.exr"))
+        .unwrap();
+    let pbrt = load_foreign(&dir.join("pbrt.exr"), None, None).unwrap();
+    assert_eq!(pbrt.mean, plain.mean);
+    assert_eq!(pbrt.variance, None);
     std::fs::remove_dir_all(dir).unwrap();
 }
 
