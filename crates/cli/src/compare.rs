@@ -10,7 +10,9 @@ use std::path::PathBuf;
 /// prefixed layers such as `radiance.R`): the image means and their ratio, MSE and relMSE, and,
 /// when both carry their variance of the mean (a `variance` layer, or --variance-a/--variance-b
 /// files), a per-pixel z-test z = (a − b)/√(v_a + v_b) with a Šidák-corrected critical value and a
-/// χ² test. Exits with status 1 when the z-test finds the images disagree.
+/// χ² test; t-corrected (Welch–Satterthwaite) when both images' samples per pixel are known (from
+/// Lightlab's OUT.json beside the EXR, or --samples-a/--samples-b), else a normal approximation
+/// that holds only for many samples. Exits with status 1 when the z-test finds the images disagree.
 #[derive(Args)]
 pub struct CompareArgs {
     /// The image tested.
@@ -29,6 +31,13 @@ pub struct CompareArgs {
     /// A separate EXR holding B's variance of the mean.
     #[arg(long)]
     variance_b: Option<PathBuf>,
+    /// Independent samples per pixel behind A's variance (default: `spp` of the OUT.json Lightlab
+    /// wrote beside A, where its variance is `Independent`).
+    #[arg(long)]
+    samples_a: Option<u64>,
+    /// Likewise for B.
+    #[arg(long)]
+    samples_b: Option<u64>,
     /// Compare only pixels X0 ≤ x < X1, Y0 ≤ y < Y1, given as X0,Y0,X1,Y1.
     #[arg(long, value_parser = parse_rect, conflicts_with = "mask")]
     region: Option<(u32, u32, u32, u32)>,
@@ -56,6 +65,19 @@ fn parse_rect(s: &str) -> Result<(u32, u32, u32, u32), String> {
         [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok((x0, y0, x1, y1)),
         _ => Err(bad()),
     }
+}
+
+/// The samples per pixel behind the variance of the image at `path`: `given`, else the `spp` of
+/// the statistics Lightlab wrote beside it when its variance is s²/n over independent samples.
+fn samples(path: &std::path::Path, given: Option<u64>) -> Option<u64> {
+    given.or_else(|| {
+        let text = std::fs::read_to_string(path.with_extension("json")).ok()?;
+        let json: serde_json::Value = serde_json::from_str(&text).ok()?;
+        let stats = &json["stats"];
+        (stats["pixel_variance"] == "Independent")
+            .then(|| stats["spp"].as_u64())
+            .flatten()
+    })
 }
 
 pub fn run(args: CompareArgs) -> Result<(), String> {
@@ -110,7 +132,21 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
         }
         (None, None) => Region::All,
     };
-    let c = compare(&a, &b, &region, args.alpha).ok_or("the region holds no pixel")?;
+    for (name, n) in [
+        ("--samples-a", args.samples_a),
+        ("--samples-b", args.samples_b),
+    ] {
+        if n.is_some_and(|n| n < 2) {
+            return Err(format!(
+                "{name} must be at least 2: a variance needs two samples"
+            ));
+        }
+    }
+    let counts = (
+        samples(&args.a, args.samples_a),
+        samples(&args.b, args.samples_b),
+    );
+    let c = compare(&a, &b, &region, args.alpha, counts).ok_or("the region holds no pixel")?;
     if let Some(path) = &args.error {
         write_exr(path, a.width, a.height, &error_layers(&a, &b, &region))
             .map_err(|e| e.to_string())?;
@@ -130,19 +166,31 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
         println!("ratio A/B = ({}, {}, {})", r[0], r[1], r[2]);
         println!("MSE = {:.4e}, relMSE = {:.4e}", c.mse, c.rel_mse);
         match &c.z {
-            Some(z) => println!(
-                "z-test over {} pixel channels: rms z = {:.3}, max |z| = {:.2} at pixel ({}, {}) channel {}, {} beyond the critical {:.2} (α = {}), χ² p-value {:.3e}",
-                z.tested,
-                z.rms_z,
-                z.max_abs_z,
-                z.worst.0,
-                z.worst.1,
-                z.worst.2,
-                z.exceeding,
-                z.critical,
-                z.alpha,
-                z.chi2_p_value
-            ),
+            Some(z) => {
+                println!(
+                    "z-test over {} pixel channels: rms z = {:.3}, max |z| = {:.2} at pixel ({}, {}) channel {}, {} beyond the critical {:.2} (α = {}), χ² p-value {:.3e} (channels taken as independent)",
+                    z.tested,
+                    z.rms_z,
+                    z.max_abs_z,
+                    z.worst.0,
+                    z.worst.1,
+                    z.worst.2,
+                    z.exceeding,
+                    z.critical,
+                    z.alpha,
+                    z.chi2_p_value
+                );
+                match z.min_degrees_of_freedom {
+                    Some(dof) => println!(
+                        "z t-corrected: variances from {} and {} samples per pixel (Welch–Satterthwaite, at least {dof:.1} degrees of freedom)",
+                        counts.0.unwrap_or(0),
+                        counts.1.unwrap_or(0)
+                    ),
+                    None => println!(
+                        "z taken as normal: an image's samples per pixel are unknown (give --samples-a/--samples-b); the false-alarm rate then holds only for many samples per pixel"
+                    ),
+                }
+            }
             None if a.variance.is_some() && b.variance.is_some() => {
                 println!("no z-test: the variances of A and B are both 0 in every pixel compared")
             }

@@ -379,7 +379,8 @@ fn progress_lines_when_not_on_a_terminal() {
 }
 
 /// `lightlab compare`: two renders of one scene with different seeds agree by the per-pixel
-/// z-test (exit 0); a render missing a bounce does not (exit 1), and the error image is written.
+/// z-test (exit 0), t-corrected with the samples per pixel their JSON names (normal without it);
+/// a render missing a bounce does not (exit 1), and the error image is written.
 #[test]
 fn compare_two_renders() {
     let dir = temp_dir("compare");
@@ -421,6 +422,22 @@ fn compare_two_renders() {
     assert!(
         out.contains("576 pixels compared") && out.contains("0 beyond the critical"),
         "{out}"
+    );
+    // 16 samples per pixel each, read from the renders' JSON: the z are t-corrected.
+    assert!(
+        out.contains("t-corrected: variances from 16 and 16 samples per pixel"),
+        "{out}"
+    );
+    let (code, out, err) = run(&["a.exr", "b.exr", "--samples-b", "1"]);
+    assert!(
+        code == Some(1) && err.contains("--samples-b must be at least 2"),
+        "{out}{err}"
+    );
+    std::fs::remove_file(dir.join("b.json")).unwrap();
+    let (code, out, err) = run(&["a.exr", "b.exr"]);
+    assert!(
+        code == Some(0) && out.contains("z taken as normal"),
+        "{out}{err}"
     );
     let (code, out, err) = run(&[
         "c.exr",
