@@ -17,7 +17,7 @@
 //! margin: measured 2.5×, required 2× (with the time drawn outside the sampler, 1.1×).
 
 use glam::{DVec3, Vec2};
-use lightlab_integrators::RenderOutput;
+use lightlab_integrators::{PixelVariance, RenderOutput};
 use lightlab_testkit::stats::{sidak, z_critical};
 use lightlab_tests::{regions, render, scene, z};
 
@@ -251,6 +251,13 @@ fn cone_tracing_averages_instants_of_the_crossing_ball() {
     let blurred = render(&scene(&crossing((0.0, 1.0))), "Cone(max_bounces: 0)", 64, 1);
     let sharp = render(&scene(&crossing((0.5, 0.5))), "Cone(max_bounces: 0)", 64, 1);
     assert_eq!((blurred.stats.spp, sharp.stats.spp), (64, 1));
+    // The spread over stratified instants bounds the variance of the mean; it is not labelled an
+    // estimate of it.
+    assert!(
+        matches!(&blurred.stats.pixel_variance, PixelVariance::NotAnEstimate(why) if why.contains("upper bound")),
+        "{:?}",
+        blurred.stats.pixel_variance
+    );
     let (b, s) = (rms(&blurred), rms(&sharp));
     assert!(
         b < 0.01 * s,
@@ -320,7 +327,13 @@ fn photon_map_over_the_shutter_is_the_average_of_its_instants() {
             regions(&render(&frozen, config, 4, 20 + k), 4)
         })
         .collect();
-    let blurred = regions(&render(&sc, config, 64, 40), 4);
+    let out = render(&sc, config, 64, 40);
+    assert!(
+        matches!(&out.stats.pixel_variance, PixelVariance::NotAnEstimate(why) if why.contains("upper bound")),
+        "{:?}",
+        out.stats.pixel_variance
+    );
+    let blurred = regions(&out, 4);
     let crit = z_critical(sidak(1e-3, 3 * 16));
     for (r, (m, se)) in blurred.iter().enumerate() {
         for c in 0..3 {

@@ -5,7 +5,7 @@
 //! False-failure rates are stated per test; seeds are fixed, so every outcome is reproducible.
 
 use lightlab_core::NoProgress;
-use lightlab_integrators::{Budget, IntegratorConfig, RenderOutput};
+use lightlab_integrators::{Budget, IntegratorConfig, PixelVariance, RenderOutput};
 use lightlab_tests::{cornell, render, scene};
 /// The Cornell box seen from above its floor: floor, blocks and the lower walls, neither the light
 /// nor the ceiling beside it — the pixels whose samples have the heaviest tails (edges of the
@@ -245,6 +245,27 @@ fn two_environments_render_as_their_sum() {
         assert!(
             a.film.pixels == b.film.pixels,
             "{config}: two environments of 0.5 differ from one of 1"
+        );
+    }
+}
+
+/// One sample per pixel gives no variance (the film writes 0 where s²/n needs two samples), and
+/// the statistics say so instead of labelling the zeros an estimate of the variance of the mean.
+#[test]
+fn one_sample_per_pixel_is_not_a_variance_estimate() {
+    let sc = lower_box((8, 8));
+    for config in ["Path()", "Light()", "Bdpt()"] {
+        let one = render(&sc, config, 1, 3);
+        assert!(
+            matches!(&one.stats.pixel_variance, PixelVariance::NotAnEstimate(why) if why.contains("one sample")),
+            "{config}: {:?}",
+            one.stats.pixel_variance
+        );
+        let two = render(&sc, config, 2, 3);
+        assert_eq!(
+            two.stats.pixel_variance,
+            PixelVariance::Independent,
+            "{config}"
         );
     }
 }

@@ -20,8 +20,10 @@ const REFERENCE_SEED: u64 = 0x0005_EED0_F2EF;
 /// Version of what a cached reference holds: 2 since light-traced variances are per sample pass,
 /// k-nearest photon estimates leave out the k-th photon, and the statistics are saved beside; 3
 /// since BDPT and VCM give an environment seen directly its whole MIS weight (earlier references
-/// of such scenes are too dark there).
-const REFERENCE_FORMAT: u32 = 3;
+/// of such scenes are too dark there); 4 since one-sample references and motion-blurred
+/// `PhotonMap`, `Radiosity` and `Cone` references say their variance is no estimate of the
+/// variance of the mean (it was subtracted from the errors).
+const REFERENCE_FORMAT: u32 = 4;
 
 /// A reference and where it came from.
 pub struct Reference {

@@ -118,6 +118,15 @@ impl RenderStats {
         techniques: &[Technique],
         pixel_variance: PixelVariance,
     ) -> RenderStats {
+        // s²/n needs two samples: with one the film writes 0, which is no estimate.
+        let pixel_variance = if spp < 2 && pixel_variance.is_estimate() {
+            PixelVariance::NotAnEstimate(format!(
+                "one sample per pixel: s²/n needs at least two, so the variance layer is 0 \
+                 (it would have been {pixel_variance:?})"
+            ))
+        } else {
+            pixel_variance
+        };
         RenderStats {
             integrator: integrator.into(),
             width: film.width,

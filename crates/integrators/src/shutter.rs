@@ -15,6 +15,17 @@ use lightlab_scene::Camera;
 /// Seed word of the passes' instants.
 const TIME_STREAM: u64 = 0x7e3a_9c1d_52b8_04f6;
 
+/// What the variance layer of a render whose passes take these instants is: the spread over the
+/// passes, which the instants' stratification makes an upper bound on the variance of the mean
+/// rather than an estimate of it (so experiments do not subtract it from a reference's error).
+pub(crate) fn instants_variance() -> crate::render::PixelVariance {
+    crate::render::PixelVariance::NotAnEstimate(
+        "an upper bound: the passes take stratified shutter instants (Owen-scrambled van der \
+         Corput), so their spread overestimates the variance of the mean"
+            .into(),
+    )
+}
+
 /// The instant of pass `pass` of a render with `seed`.
 pub(crate) fn pass_time(camera: &Camera, seed: u64, pass: u64) -> f32 {
     let (open, close) = camera.shutter;

@@ -415,7 +415,7 @@ impl Integrator for Cone {
             &counters,
             &[crate::render::Technique::Camera],
             if blur {
-                PixelVariance::Independent
+                crate::shutter::instants_variance()
             } else {
                 PixelVariance::NotAnEstimate(
                     "deterministic: one cone per pixel, no samples to take a variance over".into(),

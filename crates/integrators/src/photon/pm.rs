@@ -338,7 +338,7 @@ impl PhotonMapper {
             width as u64 * height as u64 * out.spp as u64,
             &out.counters,
             &[Technique::Camera, Technique::Photon],
-            PixelVariance::Independent,
+            crate::shutter::instants_variance(),
         );
         stats.pixel_limit = crate::render::PixelLimit::FixedRadiusBlur;
         stats.photons = photons;

@@ -465,7 +465,7 @@ impl Radiosity {
             width as u64 * height as u64 * out.spp as u64,
             &counters,
             &[],
-            PixelVariance::Independent,
+            crate::shutter::instants_variance(),
         );
         stats.pixel_limit = PixelLimit::PatchRadiosity;
         stats.radiosity = last.map(|s| RadiosityStats {
