@@ -251,7 +251,9 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     rel_mse,
                     rel_mse_se,
                     rel_mse_times_spp: rel_mse * *spp as f64,
-                    efficiency: (cpu > 0.0).then(|| 1.0 / (rel_mse * cpu)),
+                    // Undefined where the error is at or below the reference's noise (relMSE ≤ 0
+                    // once its variance is subtracted), as in experiments.
+                    efficiency: (cpu > 0.0 && rel_mse > 0.0).then(|| 1.0 / (rel_mse * cpu)),
                     cpu_model: cpu_model.clone(),
                     logical_cpus,
                     build_simd: build_simd(),
@@ -287,8 +289,9 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         "\nEach row: the mean of {} timed renders with seeds {}…{} (± one standard error of the mean \
          relMSE over them); rates are total paths or rays over total CPU or wall seconds. relMSE = \
          mean of ((x − r)² − v_r) / (r² + {REL_EPSILON}) over pixels and channels, r the reference \
-         ({} at {} spp, {}×{}) and v_r its variance of the mean; — where a render took less CPU \
-         time than the clock resolves (10 ms: raise its spp); peak resident memory {:.1} MB",
+         ({} at {} spp, {}×{}) and v_r its variance of the mean; efficiency — where a render took less CPU \
+         time than the clock resolves (10 ms: raise its spp) or relMSE ≤ 0 (the error is within \
+         the reference's noise: raise --reference-spp); peak resident memory {:.1} MB",
         args.trials,
         args.seed,
         args.seed.wrapping_add(args.trials as u64 - 1),
