@@ -5,7 +5,7 @@ use clap::Args;
 use lightlab_experiments::atomic::write_atomic;
 use lightlab_experiments::image_io::{output_layers, write_exr, write_png};
 use lightlab_integrators::paths::Layers;
-use lightlab_integrators::{Budget, IntegratorConfig};
+use lightlab_integrators::{Budget, IntegratorConfig, PixelVariance, RenderStats};
 use lightlab_scene::{MAX_RESOLUTION, Scene};
 use lightlab_testkit::timing::try_cpu_seconds;
 use std::path::PathBuf;
@@ -259,7 +259,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     );
     println!(
         "image mean radiance (R, G, B) = {}",
-        image_mean(out.film.average(), out.film.image_se, s.spp)
+        image_mean(out.film.average(), out.film.image_se, s)
     );
     if !s.pixel_variance.is_estimate() {
         println!(
@@ -301,7 +301,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     for (name, film) in &out.layers {
         println!(
             "  layer {name:>12}: {}",
-            image_mean(film.average(), film.image_se, s.spp)
+            image_mean(film.average(), film.image_se, s)
         );
     }
     println!(
@@ -314,11 +314,18 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
 }
 
 /// The image average with its standard error where one exists, saying what the error is.
-fn image_mean(mean: [f64; 3], se: Option<[f64; 3]>, spp: u32) -> String {
+fn image_mean(mean: [f64; 3], se: Option<[f64; 3]>, stats: &RenderStats) -> String {
     let m = format!("({:.6}, {:.6}, {:.6})", mean[0], mean[1], mean[2]);
+    let spp = stats.spp;
+    let from = match stats.pixel_variance {
+        PixelVariance::CameraAndPhotonGroups { groups } => format!(
+            "from the spread of {spp} camera sample passes and of {groups} independent photon groups"
+        ),
+        _ => format!("from the spread of {spp} independent sample passes"),
+    };
     match se {
         Some(e) => format!(
-            "{m} ± ({:.2e}, {:.2e}, {:.2e}) (1 standard error, from the spread of {spp} independent sample passes)",
+            "{m} ± ({:.2e}, {:.2e}, {:.2e}) (1 standard error, {from})",
             e[0], e[1], e[2]
         ),
         None => format!(

@@ -256,6 +256,24 @@ fn time_budget_and_honest_error_bars() {
         stdout.contains("not the variance of the pixel mean"),
         "{stdout}"
     );
+    // Jensen's photon map: the standard error also holds the photon groups' spread.
+    let (ok, stdout, stderr) = render_with(
+        &small,
+        &[
+            "--spp",
+            "4",
+            "-i",
+            "PhotonMap(photons: 2000, caustic_photons: 200, indirect: Direct)",
+        ],
+        &out,
+    );
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains(
+            "from the spread of 4 camera sample passes and of 16 independent photon groups"
+        ),
+        "{stdout}"
+    );
     for bad in ["0", "-1", "nan", "inf"] {
         let (ok, _, stderr) = render_with(&small, &["--seconds", bad], &out);
         assert!(
