@@ -480,6 +480,16 @@ fn budget_key(setting: &str) -> f64 {
         .unwrap_or(f64::NEG_INFINITY)
 }
 
+/// A series' legend with the count of its points that a log axis cannot show (MSE ≤ 0: an error
+/// at or below the reference's noise once its variance is subtracted), so that none vanishes
+/// silently.
+fn legend_with_dropped(label: &str, points: &[(f64, f64, f64)]) -> String {
+    match points.iter().filter(|p| !(p.1 > 0.0)).count() {
+        0 => label.to_string(),
+        n => format!("{label} ({n} point(s) with MSE ≤ 0 left out)"),
+    }
+}
+
 /// A series' legend with its fitted slope and the points the fit left out.
 fn fit_legend(label: &str, f: &Fit) -> String {
     let mut text = format!("{label}: slope {:.2} ± {:.2}", f.slope, f.slope_ci95);
@@ -646,6 +656,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
             let mut a = Vec::new();
             let mut b = Vec::new();
             let mut c = Vec::new();
+            let mut no_efficiency = 0;
             for trials in series[label].values() {
                 let (spp, _) = mean_se(&trials.iter().map(|p| p.spp).collect::<Vec<_>>());
                 let (time, _) = mean_se(&trials.iter().map(|p| p.wall_seconds).collect::<Vec<_>>());
@@ -655,8 +666,9 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                 b.push((time, m, mse_se));
                 let times: Vec<f64> = trials.iter().map(|p| p.wall_seconds).collect();
                 let e = efficiency(&mse, &times);
-                if let Some(v) = e.value {
-                    c.push((spp, v, e.se.unwrap_or(0.0)));
+                match e.value {
+                    Some(v) => c.push((spp, v, e.se.unwrap_or(0.0))),
+                    None => no_efficiency += 1,
                 }
             }
             a.sort_by(|x, y| x.0.total_cmp(&y.0));
@@ -665,7 +677,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
             let fit = fit_power_law(&a, true);
             let legend = match &fit {
                 Some(f) => fit_legend(label, f),
-                None => label.clone(),
+                None => legend_with_dropped(label, &a),
             };
             if let Some(f) = fit {
                 fits.push(SeriesFit {
@@ -679,11 +691,14 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                 points: a,
             });
             mse_time.push(Series {
-                label: label.clone(),
+                label: legend_with_dropped(label, &b),
                 points: b,
             });
             efficiency_series.push(Series {
-                label: label.clone(),
+                label: match no_efficiency {
+                    0 => label.clone(),
+                    n => format!("{label} ({n} point(s) with mean MSE ≤ 0 left out)"),
+                },
                 points: c,
             });
         }
@@ -767,7 +782,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                 by_spp.push(Series {
                     label: fit
                         .as_ref()
-                        .map_or_else(|| label.clone(), |f| fit_legend(label, f)),
+                        .map_or_else(|| legend_with_dropped(label, &a), |f| fit_legend(label, f)),
                     points: a,
                 });
                 if let Some(f) = fit {
@@ -778,7 +793,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                     });
                 }
                 by_time.push(Series {
-                    label: label.clone(),
+                    label: legend_with_dropped(label, &b),
                     points: b,
                 });
             }
@@ -812,4 +827,20 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
         }
     }
     Ok(Plots { fits, files })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Points a log axis cannot show are counted in the legend.
+    #[test]
+    fn legends_count_points_with_no_positive_error() {
+        let points = [(1.0, 0.5, 0.1), (2.0, 0.0, 0.1), (4.0, -1e-6, 0.1)];
+        assert_eq!(
+            legend_with_dropped("Path", &points),
+            "Path (2 point(s) with MSE ≤ 0 left out)"
+        );
+        assert_eq!(legend_with_dropped("Path", &points[..1]), "Path");
+    }
 }
