@@ -67,17 +67,31 @@ fn parse_rect(s: &str) -> Result<(u32, u32, u32, u32), String> {
     }
 }
 
+/// The statistics Lightlab wrote beside the image at `path`, if any.
+fn stats_of(path: &std::path::Path) -> Option<serde_json::Value> {
+    let text = std::fs::read_to_string(path.with_extension("json")).ok()?;
+    let json: serde_json::Value = serde_json::from_str(&text).ok()?;
+    Some(json["stats"].clone())
+}
+
 /// The samples per pixel behind the variance of the image at `path`: `given`, else the `spp` of
 /// the statistics Lightlab wrote beside it when its variance is s²/n over independent samples.
 fn samples(path: &std::path::Path, given: Option<u64>) -> Option<u64> {
     given.or_else(|| {
-        let text = std::fs::read_to_string(path.with_extension("json")).ok()?;
-        let json: serde_json::Value = serde_json::from_str(&text).ok()?;
-        let stats = &json["stats"];
+        let stats = stats_of(path)?;
         (stats["pixel_variance"] == "Independent")
             .then(|| stats["spp"].as_u64())
             .flatten()
     })
+}
+
+/// Why the variance layer of the image at `path` is not the variance of its pixel mean, where
+/// the statistics Lightlab wrote beside it say so.
+fn not_an_estimate(path: &std::path::Path) -> Option<String> {
+    let stats = stats_of(path)?;
+    stats["pixel_variance"]["NotAnEstimate"]
+        .as_str()
+        .map(str::to_string)
 }
 
 pub fn run(args: CompareArgs) -> Result<(), String> {
@@ -180,6 +194,14 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                     z.alpha,
                     z.chi2_p_value
                 );
+                for path in [&args.a, &args.b] {
+                    if let Some(why) = not_an_estimate(path) {
+                        println!(
+                            "caution: the variance layer of {} is not the variance of its pixel mean ({why}), so the z-test does not hold its false-alarm rate",
+                            path.display()
+                        );
+                    }
+                }
                 match z.min_degrees_of_freedom {
                     Some(dof) => println!(
                         "z t-corrected: variances from {} and {} samples per pixel (Welch–Satterthwaite, at least {dof:.1} degrees of freedom)",

@@ -397,7 +397,8 @@ fn progress_lines_when_not_on_a_terminal() {
 }
 
 /// `lightlab compare`: two renders of one scene with different seeds agree by the per-pixel
-/// z-test (exit 0), t-corrected with the samples per pixel their JSON names (normal without it);
+/// z-test (exit 0), t-corrected with the samples per pixel their JSON names (normal without it),
+/// with a caution where the JSON says a variance layer is no variance of the mean;
 /// a render missing a bounce does not (exit 1), and the error image is written.
 #[test]
 fn compare_two_renders() {
@@ -415,6 +416,10 @@ fn compare_two_renders() {
         (
             "c.exr",
             vec!["--spp", "16", "--seed", "3", "-i", "Path(max_bounces: 1)"],
+        ),
+        (
+            "s.exr",
+            vec!["--spp", "4", "-i", "Sppm(photons_per_pass: 1000)"],
         ),
     ] {
         let mut a = args.clone();
@@ -451,6 +456,13 @@ fn compare_two_renders() {
         code == Some(1) && err.contains("--samples-b must be at least 2"),
         "{out}{err}"
     );
+    // SPPM's variance layer is no variance of the mean: said beside the z-test.
+    let (_, out, err) = run(&["s.exr", "a.exr"]);
+    assert!(
+        out.contains("caution: the variance layer of s.exr is not the variance of its pixel mean"),
+        "{out}{err}"
+    );
+    assert!(!out.contains("of a.exr is not"), "{out}");
     std::fs::remove_file(dir.join("b.json")).unwrap();
     let (code, out, err) = run(&["a.exr", "b.exr"]);
     assert!(
