@@ -74,24 +74,21 @@ fn stats_of(path: &std::path::Path) -> Option<serde_json::Value> {
     Some(json["stats"].clone())
 }
 
-/// The samples per pixel behind the variance of the image at `path`: `given`, else the `spp` of
-/// the statistics Lightlab wrote beside it when its variance is s²/n over independent samples.
-fn samples(path: &std::path::Path, given: Option<u64>) -> Option<u64> {
+/// The samples per pixel behind an image's variance: `given`, else the `spp` of the statistics
+/// Lightlab wrote beside it when its variance is s²/n over independent samples.
+fn samples(stats: Option<&serde_json::Value>, given: Option<u64>) -> Option<u64> {
     given.or_else(|| {
-        let stats = stats_of(path)?;
+        let stats = stats?;
         (stats["pixel_variance"] == "Independent")
             .then(|| stats["spp"].as_u64())
             .flatten()
     })
 }
 
-/// Why the variance layer of the image at `path` is not the variance of its pixel mean, where
-/// the statistics Lightlab wrote beside it say so.
-fn not_an_estimate(path: &std::path::Path) -> Option<String> {
-    let stats = stats_of(path)?;
-    stats["pixel_variance"]["NotAnEstimate"]
-        .as_str()
-        .map(str::to_string)
+/// Why an image's variance layer is not the variance of its pixel mean, where the statistics
+/// Lightlab wrote beside it say so.
+fn not_an_estimate(stats: Option<&serde_json::Value>) -> Option<&str> {
+    stats?["pixel_variance"]["NotAnEstimate"].as_str()
 }
 
 pub fn run(args: CompareArgs) -> Result<(), String> {
@@ -156,9 +153,10 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
             ));
         }
     }
+    let stats = [stats_of(&args.a), stats_of(&args.b)];
     let counts = (
-        samples(&args.a, args.samples_a),
-        samples(&args.b, args.samples_b),
+        samples(stats[0].as_ref(), args.samples_a),
+        samples(stats[1].as_ref(), args.samples_b),
     );
     let c = compare(&a, &b, &region, args.alpha, counts).ok_or("the region holds no pixel")?;
     if let Some(path) = &args.error {
@@ -194,8 +192,8 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                     z.alpha,
                     z.chi2_p_value
                 );
-                for path in [&args.a, &args.b] {
-                    if let Some(why) = not_an_estimate(path) {
+                for (path, stats) in [&args.a, &args.b].into_iter().zip(&stats) {
+                    if let Some(why) = not_an_estimate(stats.as_ref()) {
                         println!(
                             "caution: the variance layer of {} is not the variance of its pixel mean ({why}), so the z-test does not hold its false-alarm rate",
                             path.display()

@@ -385,47 +385,35 @@ fn foreign_exr_references_load() {
             FlatSamples::F32((0..w * h).map(|i| f(i % w, i / w)).collect()),
         )
     };
-    let layer = Layer::new(
-        Vec2(w, h),
-        LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
-        AnyChannels::sort(smallvec::smallvec![
-            channel("radiance.R", &|x, y| value(x, y).0),
-            channel("radiance.G", &|x, y| value(x, y).1),
-            channel("radiance.B", &|x, y| value(x, y).2),
-            channel("variance.R", &|x, y| var(x, y).0),
-            channel("variance.G", &|x, y| var(x, y).1),
-            channel("variance.B", &|x, y| var(x, y).2),
-            channel("A", &|_, _| 1.0),
-        ]),
-    );
-    Image::from_layer(layer)
-        .write()
-        .to_file(dir.join("prefixed.exr"))
-        .unwrap();
+    // One part: the image's channels named `{image}R` …, its variance's `{variance}R` …, and A.
+    let write = |file: &str, image: &str, variance: &str| {
+        let layer = Layer::new(
+            Vec2(w, h),
+            LayerAttributes::default(),
+            Encoding::FAST_LOSSLESS,
+            AnyChannels::sort(smallvec::smallvec![
+                channel(&format!("{image}R"), &|x, y| value(x, y).0),
+                channel(&format!("{image}G"), &|x, y| value(x, y).1),
+                channel(&format!("{image}B"), &|x, y| value(x, y).2),
+                channel(&format!("{variance}R"), &|x, y| var(x, y).0),
+                channel(&format!("{variance}G"), &|x, y| var(x, y).1),
+                channel(&format!("{variance}B"), &|x, y| var(x, y).2),
+                channel("A", &|_, _| 1.0),
+            ]),
+        );
+        Image::from_layer(layer)
+            .write()
+            .to_file(dir.join(file))
+            .unwrap();
+    };
+    write("prefixed.exr", "radiance.", "variance.");
     let prefixed = load_foreign(&dir.join("prefixed.exr"), None, None).unwrap();
     assert_eq!(prefixed, plain);
     // A file with several unnamed candidates and no `radiance` says which layers it has.
     let e = load_foreign(&dir.join("prefixed.exr"), Some("beauty"), None).unwrap_err();
     assert!(e.contains("\"radiance\"") && e.contains("beauty"), "{e}");
     // pbrt-v4's `Variance` layer is the variance of one sample, not of the mean: not read as one.
-    let pbrt = Layer::new(
-        Vec2(w, h),
-        LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
-        AnyChannels::sort(smallvec::smallvec![
-            channel("R", &|x, y| value(x, y).0),
-            channel("G", &|x, y| value(x, y).1),
-            channel("B", &|x, y| value(x, y).2),
-            channel("Variance.R", &|x, y| var(x, y).0),
-            channel("Variance.G", &|x, y| var(x, y).1),
-            channel("Variance.B", &|x, y| var(x, y).2),
-        ]),
-    );
-    Image::from_layer(pbrt)
-        .write()
-        .to_file(dir.join("pbrt.exr"))
-        .unwrap();
+    write("pbrt.exr", "", "Variance.");
     let pbrt = load_foreign(&dir.join("pbrt.exr"), None, None).unwrap();
     assert_eq!(pbrt.mean, plain.mean);
     assert_eq!(pbrt.variance, None);
