@@ -245,7 +245,8 @@ pub fn efficiency(errors: &[f64], seconds: &[f64]) -> Efficiency {
 /// trials per point, whose individual standard errors are too noisy to weight by). The slope's
 /// standard error is √(1/Σwᵢ(ln xᵢ − x̄)²), multiplied by √(χ²/(n − 2)) when that exceeds one (the
 /// points scatter more than their errors allow: the law does not hold exactly over the range;
-/// Birge 1932, as the Particle Data Group scales), and the interval is ±1.96 of it. Without
+/// Birge 1932, as the Particle Data Group scales). The interval is ±1.96 of the unscaled error,
+/// or ±t₀.₉₇₅(n − 2) of the scaled one: the scale is then estimated from n − 2 residuals. Without
 /// standard errors (one trial) it is ordinary least squares with a Student-t interval on n − 2
 /// degrees of freedom. Points need independent errors: disjoint seeds at every x.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -317,13 +318,16 @@ pub fn fit_power_law(points: &[(f64, f64, f64)], pooled: bool) -> Option<Fit> {
         .zip(&w)
         .map(|(p, w)| w * (p.1 - intercept - slope * p.0).powi(2))
         .sum();
+    let t_975 = || StudentsT::new(0.0, 1.0, nf - 2.0).map(|t| t.inverse_cdf(0.975));
     let (slope_ci95, chi2_per_dof) = if weighted {
         let per_dof = (n > 2).then(|| chi2 / (nf - 2.0));
-        let scale = per_dof.map_or(1.0, |c| c.max(1.0).sqrt());
-        (1.959_963_985 * scale / sxx.sqrt(), per_dof)
+        match per_dof {
+            // The residuals set the scale: an estimated variance on n − 2 degrees of freedom.
+            Some(c) if c > 1.0 => (t_975().ok()? * (c / sxx).sqrt(), per_dof),
+            _ => (1.959_963_985 / sxx.sqrt(), per_dof),
+        }
     } else if n > 2 {
-        let t = StudentsT::new(0.0, 1.0, nf - 2.0).ok()?.inverse_cdf(0.975);
-        (t * (chi2 / (nf - 2.0) / sxx).sqrt(), None)
+        (t_975().ok()? * (chi2 / (nf - 2.0) / sxx).sqrt(), None)
     } else {
         (f64::INFINITY, None)
     };
@@ -511,7 +515,7 @@ mod tests {
 
     /// Weighted: exact points with 5 % standard errors give the exact slope, an interval of
     /// 1.96·0.05/√Sxx (χ² = 0 does not shrink it), and χ²/dof 0; a point far off its error
-    /// inflates the interval by √(χ²/dof).
+    /// inflates the interval by √(χ²/dof), with Student's t for 1.96.
     #[test]
     fn weighted_fit_uses_standard_errors() {
         let pts: Vec<(f64, f64, f64)> = (0..6)
@@ -533,11 +537,16 @@ mod tests {
         );
         assert!(f.chi2_per_dof.unwrap() < 1e-20);
         let mut off = pts.clone();
+        // Twice the value with the same relative error: the weights, so Sxx, stay.
         off[5].1 *= 2.0;
+        off[5].2 *= 2.0;
         let g = fit_power_law(&off, false).unwrap();
+        // The scaled error's interval is Student's t on n − 2 = 4 degrees of freedom, not 1.96.
+        let t4 = 2.776_445_105;
+        let expected = t4 * (g.chi2_per_dof.unwrap() / sxx).sqrt();
         assert!(
-            g.chi2_per_dof.unwrap() > 10.0 && g.slope_ci95 > 3.0 * f.slope_ci95,
-            "{g:?}"
+            g.chi2_per_dof.unwrap() > 10.0 && (g.slope_ci95 - expected).abs() < 1e-6 * expected,
+            "{g:?}, expected ±{expected}"
         );
     }
 }
