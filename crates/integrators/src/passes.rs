@@ -154,19 +154,8 @@ impl<'a> Schedule<'a> {
         let n = match self.budget {
             Budget::Samples(n) => (done < n).then(|| preferred.min(n - done))?,
             Budget::Seconds(seconds) => {
-                let Some(first) = self.first_pass else {
-                    self.first_pass = Some(Instant::now());
-                    return Some(1);
-                };
-                let per_sample = first.elapsed().as_secs_f64() / done.max(1) as f64;
-                let remaining = seconds - self.elapsed();
-                if done == u32::MAX || remaining < 0.5 * per_sample {
-                    return None;
-                }
-                let fit = (0.5 * remaining / per_sample.max(1e-12)).floor();
-                (fit.min(done as f64).max(1.0) as u32)
-                    .min(preferred)
-                    .min(u32::MAX - done)
+                let since_first = self.first_pass.map(|f| f.elapsed().as_secs_f64());
+                timed_pass(seconds, self.elapsed(), since_first, done)?.min(preferred)
             }
         };
         self.first_pass.get_or_insert_with(Instant::now);
@@ -186,6 +175,32 @@ impl<'a> Schedule<'a> {
             }
         }
     }
+}
+
+/// The samples of the next pass under a time budget of `seconds`, `elapsed` seconds having passed
+/// since the schedule started and `since_first_pass` since the first pass did (`None` before it),
+/// with `done` samples rendered; `None` when the budget is spent. The first pass renders one sample;
+/// later ones half the remaining time at the rate measured so far (at most doubling the count), and
+/// the render stops when less than half a sample's time remains.
+///
+/// The count N reached is a stopping time: it depends on the clock, so on how long the samples
+/// took, and so, weakly, on their values. The image is the render of N samples, but N is not
+/// independent of it. Renewal theory gives the bias of a mean over N samples whose cost c
+/// correlates with their value X: Cov(X, c) / (E[c] · E[N]) to first order (c is the whole sample
+/// index's cost, summed over the image, so a pixel's share of the covariance is 1/pixels of a lone
+/// pixel's). Relative to the standard error that is ρ(X, c) · CV(c) / √N, or ρ · CV(c_p) / (P · √N)
+/// for a pixel among P of similar cost c_p: second order in the MSE. `stopping_time_bias` checks the formula in the worst case, one pixel whose cost is its value.
+fn timed_pass(seconds: f64, elapsed: f64, since_first_pass: Option<f64>, done: u32) -> Option<u32> {
+    let Some(since_first) = since_first_pass else {
+        return Some(1);
+    };
+    let per_sample = since_first / done.max(1) as f64;
+    let remaining = seconds - elapsed;
+    if done == u32::MAX || remaining < 0.5 * per_sample {
+        return None;
+    }
+    let fit = (0.5 * remaining / per_sample.max(1e-12)).floor();
+    Some((fit.min(done as f64).max(1.0) as u32).min(u32::MAX - done))
 }
 
 /// What the driver needs to know about an estimator.
@@ -642,5 +657,75 @@ fn splat_pass<E, F>(
             }
         }
         add_image_averages(state, &image, slots);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::timed_pass;
+    use lightlab_samplers::{Independent, Sampler};
+
+    /// A render on a simulated clock under a time budget of `seconds`: every sample index gives
+    /// each of `pixels` pixels an exponential value X of mean and variance 1 and costs
+    /// Σ (c₀ + c₁·X) over them. Returns the pixels' estimates and the samples reached.
+    fn timed_render(
+        seconds: f64,
+        pixels: usize,
+        (c0, c1): (f64, f64),
+        rng: &mut Independent,
+    ) -> (Vec<f64>, u32) {
+        let mut sums = vec![0.0; pixels];
+        let (mut clock, mut first_pass, mut done) = (0.0, None, 0u32);
+        while let Some(n) = timed_pass(seconds, clock, first_pass.map(|f| clock - f), done) {
+            first_pass.get_or_insert(clock);
+            for _ in 0..n {
+                for sum in &mut sums {
+                    let x = -(1.0 - rng.next_1d() as f64).ln();
+                    *sum += x;
+                    clock += c0 + c1 * x;
+                }
+            }
+            done += n;
+        }
+        (sums.iter().map(|s| s / done as f64).collect(), done)
+    }
+
+    /// The bias of a time-budgeted render's mean is the renewal-theory value Cov(X, c) / (E[c]·E[N])
+    /// of `timed_pass`'s docs: about 1/N of the mean for a lone pixel whose cost is its value (the
+    /// worst case), 1/pixels of that in an image, and nothing when the cost does not depend on the
+    /// value. 20,000 simulated renders per case, fixed seeds; each check allows 4 standard errors
+    /// of the simulated bias (false-failure rate 6·10⁻⁵) plus 10 % of the first-order formula.
+    #[test]
+    fn stopping_time_bias() {
+        let renders = 20_000;
+        for (case, (seconds, pixels, cost)) in [
+            (64.0, 1, (0.0, 1.0)),
+            (64.0, 1, (1.0, 1.0)),
+            (16.0 * 64.0, 16, (0.0, 1.0)),
+            (64.0, 1, (1.0, 0.0)),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let mut rng = Independent::new();
+            rng.start_pixel_sample(11, case as u64, 0);
+            let (mut bias, mut bias2, mut samples) = (0.0, 0.0, 0.0);
+            for _ in 0..renders {
+                let (means, n) = timed_render(seconds, pixels, cost, &mut rng);
+                let b = means.iter().map(|m| m - 1.0).sum::<f64>() / pixels as f64;
+                (bias, bias2, samples) = (bias + b, bias2 + b * b, samples + n as f64);
+            }
+            let r = renders as f64;
+            let (bias, samples) = (bias / r, samples / r);
+            let se = ((bias2 / r - bias * bias) / (r - 1.0)).sqrt();
+            // Cov(X, c) = c₁·Var X = c₁; E[c] = pixels · (c₀ + c₁).
+            let (c0, c1) = cost;
+            let expected = c1 / (pixels as f64 * (c0 + c1) * samples);
+            assert!(
+                (bias - expected).abs() < 4.0 * se + 0.1 * expected,
+                "case {case}: bias {bias:.5} ± {se:.5} over E[N] = {samples:.1} samples, \
+                 renewal theory {expected:.5}"
+            );
+        }
     }
 }
