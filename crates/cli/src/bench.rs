@@ -289,7 +289,8 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         "\nEach row: the mean of {} timed renders with seeds {}…{} (± one standard error of the mean \
          relMSE over them); rates are total paths or rays over total CPU or wall seconds. relMSE = \
          mean of ((x − r)² − v_r) / (r² + {REL_EPSILON}) over pixels and channels, r the reference \
-         ({} at {} spp, {}×{}) and v_r its variance of the mean; efficiency — where a render took less CPU \
+         ({} at {} spp, {}×{}) and v_r its variance of the mean (less the first-order bias of dividing by \
+         the noisy r: lightlab_experiments::metrics); efficiency — where a render took less CPU \
          time than the clock resolves (10 ms: raise its spp) or relMSE ≤ 0 (the error is within \
          the reference's noise: raise --reference-spp); peak resident memory {:.1} MB",
         args.trials,
