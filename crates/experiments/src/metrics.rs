@@ -402,7 +402,8 @@ mod tests {
     /// references r̂ ~ N(r, v_r), in a mid-grey pixel with a biased method and in a black one.
     /// Dividing by r̂² + ε biases the uncorrected mean by 6 % and −2 % of the true
     /// E[(x − r)²]/(r² + ε) (first order: 6.2 % and −2.0 %); the corrected relMSE must be within
-    /// 0.4 % (second order) plus 4 standard errors (≈ 0.08 % each; false failures ≈ 6·10⁻⁵).
+    /// 0.4 % (second order: 0.3 % and 0.2 % by quadrature) plus 4 standard errors from the 10
+    /// batches (≈ 0.1 % each; Student t₉, so false failures ≈ 3·10⁻³ for another seed).
     #[test]
     fn rel_mse_corrects_the_noisy_denominator() {
         let eps = REL_EPSILON;
