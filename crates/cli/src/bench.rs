@@ -195,8 +195,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         );
         for (label, config, spp) in &integrators {
             let integrator = config.build()?;
-            integrator
-                .check_scene(&scene)
+            lightlab_integrators::memory::check_render(&*integrator, &scene)
                 .map_err(|e| format!("{}: {e}", path.display()))?;
             for &threads in &args.threads {
                 let pool = rayon::ThreadPoolBuilder::new()

@@ -206,8 +206,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let integrator = config.build()?;
-    integrator
-        .check_scene(&scene)
+    lightlab_integrators::memory::check_render(&*integrator, &scene)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     let bar = Bar::new("render", Unit::Percent);
     crate::interrupt::on_interrupt(|| {

@@ -163,6 +163,24 @@ fn bad_input_is_an_error_not_a_panic() {
             "leaves 0 sample count",
         ),
     ];
+    // Refused before allocating: 16384² pixels × 1024 light subpaths each is tens of terabytes
+    // of light vertices (the kernel's out-of-memory kill ended it otherwise).
+    let mut cases = cases;
+    if cfg!(target_os = "linux") {
+        cases.push((
+            vec![
+                "render".into(),
+                repo().join("scenes/cornell-box.ron").display().to_string(),
+                "--resolution".into(),
+                "16384x16384".into(),
+                "--integrator".into(),
+                "Vcm(max_bounces: 8, light_paths: 1024)".into(),
+                "-o".into(),
+                dir.join("huge.exr").display().to_string(),
+            ],
+            "of memory are available",
+        ));
+    }
     for (args, want) in cases {
         let out = lightlab().args(&args).output().unwrap();
         let err = String::from_utf8_lossy(&out.stderr);

@@ -119,8 +119,7 @@ pub fn reference(
                 let integrator = config
                     .build()
                     .map_err(|e| format!("reference integrator {}: {e}", config.to_ron()))?;
-                integrator
-                    .check_scene(scene)
+                lightlab_integrators::memory::check_render(&*integrator, scene)
                     .map_err(|e| format!("reference integrator {}: {e}", config.to_ron()))?;
                 let out =
                     integrator.render(scene, &Budget::Samples(*spp), REFERENCE_SEED, progress);

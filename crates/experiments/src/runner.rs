@@ -303,8 +303,7 @@ pub fn run_experiment(
             .and_then(|c| c.with_paths_and_layers(None, class_layers(&desc.classes)))
             .map_err(|e| e.to_string())?;
         let integrator = config.build().map_err(|e| e.to_string())?;
-        integrator
-            .check_scene(scene)
+        lightlab_integrators::memory::check_render(&*integrator, scene)
             .map_err(|e| format!("{} / {}: {e}", run.scene_name, run.method))?;
         let out = integrator.render(scene, &run.budget.into(), run.seed, per_run);
         let layers = output_layers(&out);

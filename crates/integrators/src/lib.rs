@@ -43,6 +43,7 @@ pub mod cone;
 mod config;
 mod film;
 mod light;
+pub mod memory;
 mod nee;
 mod passes;
 mod path;
@@ -112,6 +113,12 @@ pub trait Integrator: Send + Sync {
     fn best_sample_count(&self, n: u32) -> u32 {
         self.sampler().map_or(n, |s| s.best_count_up_to(n))
     }
+
+    /// Bytes the render of `scene` holds at once for its images (films, layers, the driver's
+    /// buffers) and whatever else is fixed by the settings and the image size. Photon maps and
+    /// light vertices, whose size depends on the scene's light transport, are not counted: a lower
+    /// bound, checked against the memory available before a render starts ([`memory::check`]).
+    fn image_bytes(&self, scene: &Scene) -> u64;
 
     /// Whether the integrator, as configured, can render `scene` (an error says why not).
     fn check_scene(&self, _scene: &Scene) -> Result<(), String> {

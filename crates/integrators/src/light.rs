@@ -176,7 +176,25 @@ impl Visitor for LightPath<'_, '_, '_> {
     }
 }
 
+impl LightTracer {
+    /// The images the driver keeps: the full image and the router's layers, splatted into.
+    fn pass_spec(&self, scene: &Scene) -> PassSpec {
+        PassSpec {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            slots: 1 + self.router.layer_count(),
+            splats: true,
+            groups: 0,
+            independent: true,
+        }
+    }
+}
+
 impl Integrator for LightTracer {
+    fn image_bytes(&self, scene: &Scene) -> u64 {
+        self.pass_spec(scene).bytes()
+    }
+
     fn render_passes(
         &self,
         scene: &Scene,
@@ -187,14 +205,7 @@ impl Integrator for LightTracer {
     ) -> RenderOutput {
         let (width, height) = (scene.camera.width, scene.camera.height);
         let pixels = width as u64 * height as u64;
-        let spec = PassSpec {
-            width,
-            height,
-            slots: 1 + self.router.layer_count(),
-            splats: true,
-            groups: 0,
-            independent: true,
-        };
+        let spec = self.pass_spec(scene);
         let mut schedule = Schedule::new(*budget, progress, pixels);
         // The "pixel sample" (x, y, i) is light path iP + (y·width + x): the driver only uses it
         // to lay out the work.

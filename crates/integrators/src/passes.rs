@@ -189,7 +189,9 @@ impl<'a> Schedule<'a> {
 /// correlates with their value X: Cov(X, c) / (E[c] · E[N]) to first order (c is the whole sample
 /// index's cost, summed over the image, so a pixel's share of the covariance is 1/pixels of a lone
 /// pixel's). Relative to the standard error that is ρ(X, c) · CV(c) / √N, or ρ · CV(c_p) / (P · √N)
-/// for a pixel among P of similar cost c_p: second order in the MSE. `stopping_time_bias` checks the formula in the worst case, one pixel whose cost is its value.
+/// for a pixel among P of similar cost c_p, on average over budgets (when the cost of a sample
+/// index hardly varies, N is nearly fixed and particular budgets give up to about
+/// ρ / (√(2πP) · N)): second order in the MSE. `stopping_time_bias` checks the formula in the worst case, one pixel whose cost is its value.
 fn timed_pass(seconds: f64, elapsed: f64, since_first_pass: Option<f64>, done: u32) -> Option<u32> {
     let Some(since_first) = since_first_pass else {
         return Some(1);
@@ -217,6 +219,23 @@ pub(crate) struct PassSpec {
     /// Whether sample indices are independent and identically distributed (an independent
     /// sampler), so that the film's s²/n and the image's standard error are estimates.
     pub independent: bool,
+}
+
+impl PassSpec {
+    /// Bytes the driver holds at once for these images: a film per slot (each pixel's
+    /// statistics, with its photon-group sums), and either the tiles' copies of them being merged
+    /// back (`pixel_pass`) or the pass's pixel buffer and one sample index's values (`splat_pass`).
+    pub fn bytes(&self) -> u64 {
+        let cells = self.width as u64 * self.height as u64 * self.slots as u64;
+        let per_cell =
+            (size_of::<PixelSums>() + size_of::<[f64; 3]>() * group_stride(self.groups)) as u64;
+        let passing = if self.splats {
+            (size_of::<[f64; 3]>() + size_of::<[f32; 3]>()) as u64
+        } else {
+            per_cell
+        };
+        cells.saturating_mul(per_cell + passing)
+    }
 }
 
 /// What a render produced: one film per slot, the counters summed over work items, the samples

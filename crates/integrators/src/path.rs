@@ -84,6 +84,18 @@ impl PathTracer {
         Ok(PathTracer { config, router })
     }
 
+    /// The images the driver keeps: the full image and the router's layers.
+    fn pass_spec(&self, scene: &Scene) -> PassSpec {
+        PassSpec {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            slots: 1 + self.router.layer_count(),
+            splats: false,
+            groups: 0,
+            independent: self.config.sampler.independent(),
+        }
+    }
+
     /// Whether next-event estimation is done at non-specular vertices.
     fn samples_lights(&self) -> bool {
         matches!(self.config.strategy, Strategy::Mis | Strategy::LightOnly)
@@ -219,6 +231,10 @@ impl Integrator for PathTracer {
         Some(&self.config.sampler)
     }
 
+    fn image_bytes(&self, scene: &Scene) -> u64 {
+        self.pass_spec(scene).bytes()
+    }
+
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {
         if !self.samples_lights() && scene.lights.iter().any(|l| l.is_delta()) {
             return Err(format!(
@@ -250,14 +266,7 @@ impl SampledRender for PathTracer {
             on_pass,
         } = args;
         let (width, height) = (scene.camera.width, scene.camera.height);
-        let spec = PassSpec {
-            width,
-            height,
-            slots: 1 + tracer.router.layer_count(),
-            splats: false,
-            groups: 0,
-            independent: tracer.config.sampler.independent(),
-        };
+        let spec = tracer.pass_spec(scene);
         let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
         let out = run_passes(
             &spec,

@@ -218,6 +218,25 @@ impl Integrator for Bdpt {
     fn sampler(&self) -> Option<&SamplerConfig> {
         Some(&self.config.sampler)
     }
+
+    fn image_bytes(&self, scene: &Scene) -> u64 {
+        self.pass_spec(scene).bytes()
+    }
+}
+
+impl Bdpt {
+    /// The images the driver keeps, splatted into: per pixel the full image, the class or bounce
+    /// layers, then two per strategy.
+    fn pass_spec(&self, scene: &Scene) -> PassSpec {
+        PassSpec {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            slots: 1 + self.router.layer_count() + 2 * self.strategies.len(),
+            splats: true,
+            groups: 0,
+            independent: self.config.sampler.independent(),
+        }
+    }
 }
 
 /// What one work item keeps besides its contributions: the subpath buffers it reuses, and the
@@ -252,16 +271,8 @@ impl SampledRender for Bdpt {
         let cfg = &bdpt.config;
         let (width, height) = (scene.camera.width, scene.camera.height);
         let router = &bdpt.router;
-        // Per pixel: the full image, the class or bounce layers, then two per strategy.
         let first_strategy = 1 + router.layer_count();
-        let spec = PassSpec {
-            width,
-            height,
-            slots: first_strategy + 2 * bdpt.strategies.len(),
-            splats: true,
-            groups: 0,
-            independent: cfg.sampler.independent(),
-        };
+        let spec = bdpt.pass_spec(scene);
         let mut schedule = Schedule::new(*budget, progress, width as u64 * height as u64);
         let out = run_passes(
             &spec,

@@ -22,7 +22,7 @@ mod regions;
 mod shading;
 
 use crate::config::{ConfigError, Settings, Validate, invalid};
-use crate::film::Film;
+use crate::film::{Film, PixelSums};
 use crate::paths::{Layers, PathClass, Router};
 use crate::render::{Counters, PixelLimit, PixelVariance, named};
 use crate::shutter::pass_time;
@@ -349,6 +349,14 @@ fn check(scene: &Scene) -> Result<(), String> {
 impl Integrator for Cone {
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {
         check(scene)
+    }
+
+    /// A film per slot, and an instant's rows: a value per pixel and slot.
+    fn image_bytes(&self, scene: &Scene) -> u64 {
+        let cells = scene.camera.width as u64
+            * scene.camera.height as u64
+            * (1 + self.router.layer_count()) as u64;
+        cells.saturating_mul((size_of::<PixelSums>() + size_of::<Rgb>()) as u64)
     }
 
     /// One cone per pixel, whatever the budget (the image is deterministic: more samples would

@@ -293,14 +293,7 @@ impl PhotonMapper {
             *current.write().expect("no pass panicked") = Some((time, maps));
         };
         let walk = self.walk();
-        let spec = PassSpec {
-            width,
-            height,
-            slots: 1 + self.router.layer_count(),
-            splats: false,
-            groups: 0,
-            independent: true,
-        };
+        let spec = self.pass_spec(scene);
         let out = run_progressive_passes(
             &spec,
             &self.router,
@@ -360,7 +353,26 @@ struct Maps {
     caustic_search: Search,
 }
 
+impl PhotonMapper {
+    /// The images the driver keeps: the full image and the router's layers, with the photon
+    /// groups' sums when one set of maps serves the whole render (no motion blur).
+    fn pass_spec(&self, scene: &Scene) -> PassSpec {
+        PassSpec {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            slots: 1 + self.router.layer_count(),
+            splats: false,
+            groups: if scene.motion_blur() { 0 } else { GROUPS },
+            independent: true,
+        }
+    }
+}
+
 impl Integrator for PhotonMapper {
+    fn image_bytes(&self, scene: &Scene) -> u64 {
+        self.pass_spec(scene).bytes()
+    }
+
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {
         let c = &self.config;
         super::config::check_radius("gather radius", c.gather.radius(), scene)?;
@@ -385,14 +397,7 @@ impl Integrator for PhotonMapper {
         let maps = self.maps(scene, seed, scene.camera.shutter.0, &mut counters);
         let walk = self.walk();
         let router = &self.router;
-        let spec = PassSpec {
-            width,
-            height,
-            slots: 1 + router.layer_count(),
-            splats: false,
-            groups: GROUPS,
-            independent: true,
-        };
+        let spec = self.pass_spec(scene);
         let out = run_passes(
             &spec,
             router,

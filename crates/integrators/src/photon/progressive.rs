@@ -104,6 +104,18 @@ impl Progressive {
         })
     }
 
+    /// The images the driver keeps: the full image and the router's layers.
+    fn pass_spec(&self, scene: &Scene) -> PassSpec {
+        PassSpec {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            slots: 1 + self.router.layer_count(),
+            splats: false,
+            groups: 0,
+            independent: false,
+        }
+    }
+
     fn name(&self) -> &'static str {
         match self.variant {
             Variant::Ppm => "Ppm",
@@ -160,14 +172,7 @@ impl Progressive {
             time: 0.0,
         });
         let mut photons_stored = 0u64;
-        let spec = PassSpec {
-            width,
-            height,
-            slots,
-            splats: false,
-            groups: 0,
-            independent: false,
-        };
+        let spec = self.pass_spec(scene);
         let mut begin = |i: u32, counters: &mut Counters| {
             let mut pass = pass.write().expect("no pass panicked");
             if i > 0 {
@@ -366,6 +371,16 @@ fn gather(
 }
 
 impl Integrator for Progressive {
+    /// The images, and each pixel's progressive state: radius, photon count and three sums per
+    /// slot.
+    fn image_bytes(&self, scene: &Scene) -> u64 {
+        let spec = self.pass_spec(scene);
+        let state = size_of::<Mutex<PixelState>>() + 3 * spec.slots * size_of::<[f64; 3]>();
+        let pixels = spec.width as u64 * spec.height as u64;
+        spec.bytes()
+            .saturating_add(pixels.saturating_mul(state as u64))
+    }
+
     fn render_passes(
         &self,
         scene: &Scene,

@@ -388,12 +388,29 @@ impl Integrator for Radiosity {
     fn sampler(&self) -> Option<&SamplerConfig> {
         Some(&self.config.sampler)
     }
+
+    fn image_bytes(&self, scene: &Scene) -> u64 {
+        self.pass_spec(scene).bytes()
+    }
 }
 
 /// One instant's solution: the frozen scene, its patches and their radiance per output slot.
 type Solution = (Scene, Patches, Vec<Vec<Rgb>>);
 
 impl Radiosity {
+    /// The images the driver keeps: the full image and the router's layers (one radiance per
+    /// patch and slot).
+    fn pass_spec(&self, scene: &Scene) -> PassSpec {
+        PassSpec {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            slots: 1 + self.router.layer_count(),
+            splats: false,
+            groups: 0,
+            independent: self.config.sampler.independent(),
+        }
+    }
+
     /// Motion blur as an accumulation buffer (Haeberli & Akeley 1990): pass i solves the scene
     /// frozen at its instant (the passes' stratified times, `shutter`) with form factors of its
     /// own seed, and its camera samples see that solution. Passes are then independent samples of
@@ -419,14 +436,7 @@ impl Radiosity {
             last = Some(stats);
             *current.write().expect("no pass panicked") = Some((frozen, patches, radiance));
         };
-        let spec = PassSpec {
-            width,
-            height,
-            slots: 1 + self.router.layer_count(),
-            splats: false,
-            groups: 0,
-            independent: self.config.sampler.independent(),
-        };
+        let spec = self.pass_spec(scene);
         let out = run_progressive_passes(
             &spec,
             &self.router,

@@ -244,6 +244,17 @@ impl Integrator for Vcm {
         Some(&self.config.sampler)
     }
 
+    /// The images, and a pass's light subpaths: at least their first vertex, on the light, with
+    /// its MIS quantities and its index.
+    fn image_bytes(&self, scene: &Scene) -> u64 {
+        let paths =
+            scene.camera.width as u64 * scene.camera.height as u64 * self.config.light_paths as u64;
+        let per_path = size_of::<PathVertex>() + size_of::<Quantities>() + size_of::<u32>();
+        self.pass_spec(scene)
+            .bytes()
+            .saturating_add(paths.saturating_mul(per_path as u64))
+    }
+
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {
         if self.config.variant == Variant::Vc {
             return Ok(());
@@ -299,15 +310,7 @@ impl SampledRender for Vcm {
         let (width, height) = (scene.camera.width, scene.camera.height);
         let pixels = width as usize * height as usize;
         let first_layer = 1 + router.layer_count();
-        let (connects, _) = Vcm::techniques_of(cfg.variant);
-        let spec = PassSpec {
-            width,
-            height,
-            slots: first_layer + 2 * vcm.layers.len(),
-            splats: connects,
-            groups: 0,
-            independent: cfg.variant == Variant::Vc && cfg.sampler.independent(),
-        };
+        let spec = vcm.pass_spec(scene);
         let mut schedule = Schedule::new(*budget, progress, pixels as u64);
         let state: RwLock<Option<Pass>> = RwLock::new(None);
         let (mut light_paths, mut stored) = (0u64, 0u64);
@@ -479,6 +482,20 @@ impl SampledRender for Vcm {
 }
 
 impl Vcm {
+    /// The images the driver keeps: per pixel the full image, the class or bounce layers, then
+    /// two per technique layer; splatted into when light subpaths connect to the camera.
+    fn pass_spec(&self, scene: &Scene) -> PassSpec {
+        let cfg = &self.config;
+        PassSpec {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            slots: 1 + self.router.layer_count() + 2 * self.layers.len(),
+            splats: Vcm::techniques_of(cfg.variant).0,
+            groups: 0,
+            independent: cfg.variant == Variant::Vc && cfg.sampler.independent(),
+        }
+    }
+
     /// The light side of 0-based pass `i`: its light subpaths, their index and the techniques'
     /// weights at its radius.
     fn pass(&self, scene: &Scene, seed: u64, i: u32, counters: &mut Counters) -> Pass {
