@@ -12,7 +12,10 @@
 //!   N' = N + αM,   r'² = r² · (N + αM)/(N + M),   τ' = (τ + Φ_new) · r'²/r²,
 //!
 //! and its photon estimate after i passes is τ / (i · π r²) (photon fluxes are already divided by
-//! the photons per pass). The photons a pass brings fall with the disk's area, M_i ≈ λπr_i², and
+//! the photons per pass). M counts the photons the visible point can use: on a surface facing the
+//! same way and arriving where its BSDF is not zero (as Hachisuka's own smallppm tests the
+//! normals; pbrt-v4 counts every photon in the disk). Photons that cannot contribute then do not
+//! shrink the radius; both rules are consistent, and they differ in the radius a pixel reaches. The photons a pass brings fall with the disk's area, M_i ≈ λπr_i², and
 //! then r_i² ∝ i^(α−1) (were M constant, the rate would be i^((α−1)/α) instead). That is the rate
 //! of the schedule `Global` applies to every pixel exactly, r²_{i+1} = r²_i (i + α)/(i + 1)
 //! (Knaus & Zwicker 2011, eq. 19), with the image the mean of the independent per-pass estimates.
