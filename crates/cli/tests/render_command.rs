@@ -180,6 +180,18 @@ fn bad_input_is_an_error_not_a_panic() {
             ],
             "of memory are available",
         ));
+        // Four billion photon paths: about a terabyte of photons, estimated by a pilot.
+        cases.push((
+            vec![
+                "render".into(),
+                repo().join("scenes/cornell-box.ron").display().to_string(),
+                "--integrator".into(),
+                "PhotonMap(photons: 4000000000)".into(),
+                "-o".into(),
+                dir.join("photons.exr").display().to_string(),
+            ],
+            "of memory are available",
+        ));
     }
     for (args, want) in cases {
         let out = lightlab().args(&args).output().unwrap();

@@ -114,11 +114,12 @@ pub trait Integrator: Send + Sync {
         self.sampler().map_or(n, |s| s.best_count_up_to(n))
     }
 
-    /// Bytes the render of `scene` holds at once for its images (films, layers, the driver's
-    /// buffers) and whatever else is fixed by the settings and the image size. Photon maps and
-    /// light vertices, whose size depends on the scene's light transport, are not counted: a lower
-    /// bound, checked against the memory available before a render starts ([`memory::check`]).
-    fn image_bytes(&self, scene: &Scene) -> u64;
+    /// Bytes the render of `scene` will hold at its peak, as far as is known before it starts:
+    /// its images (films, layers, the driver's buffers), what the settings and the image size fix
+    /// (VCM's light vertices, at least one per subpath), and photon maps, estimated from a pilot of
+    /// 4096 photon paths (`photon::trace::stored_per_path`). Checked against the memory available
+    /// before a render starts ([`memory::check`]).
+    fn memory_bytes(&self, scene: &Scene) -> u64;
 
     /// Whether the integrator, as configured, can render `scene` (an error says why not).
     fn check_scene(&self, _scene: &Scene) -> Result<(), String> {

@@ -191,7 +191,7 @@ impl LightTracer {
 }
 
 impl Integrator for LightTracer {
-    fn image_bytes(&self, scene: &Scene) -> u64 {
+    fn memory_bytes(&self, scene: &Scene) -> u64 {
         self.pass_spec(scene).bytes()
     }
 

@@ -231,7 +231,7 @@ impl Integrator for PathTracer {
         Some(&self.config.sampler)
     }
 
-    fn image_bytes(&self, scene: &Scene) -> u64 {
+    fn memory_bytes(&self, scene: &Scene) -> u64 {
         self.pass_spec(scene).bytes()
     }
 

@@ -219,7 +219,7 @@ impl Integrator for Bdpt {
         Some(&self.config.sampler)
     }
 
-    fn image_bytes(&self, scene: &Scene) -> u64 {
+    fn memory_bytes(&self, scene: &Scene) -> u64 {
         self.pass_spec(scene).bytes()
     }
 }

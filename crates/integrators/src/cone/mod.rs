@@ -352,7 +352,7 @@ impl Integrator for Cone {
     }
 
     /// A film per slot, and an instant's rows: a value per pixel and slot.
-    fn image_bytes(&self, scene: &Scene) -> u64 {
+    fn memory_bytes(&self, scene: &Scene) -> u64 {
         let cells = scene.camera.width as u64
             * scene.camera.height as u64
             * (1 + self.router.layer_count()) as u64;

@@ -101,6 +101,15 @@ pub struct PhotonMap {
 }
 
 impl PhotonMap {
+    /// Bytes the kd-tree holds per photon: a copy of its position and its index (kiddo's stems
+    /// add a few per cent).
+    const TREE_BYTES: usize = size_of::<[f32; 3]>() + size_of::<u32>();
+
+    /// Bytes of a map that will hold `photons` photons.
+    pub fn bytes_for(photons: f64) -> f64 {
+        photons * (size_of::<Photon>() + Self::TREE_BYTES) as f64
+    }
+
     /// Indexes the photons of a tracing pass.
     pub fn new(traced: Traced) -> PhotonMap {
         let Traced {
@@ -152,8 +161,7 @@ impl PhotonMap {
 
     /// Bytes held: photons plus the tree (its points and item indices).
     pub fn bytes(&self) -> usize {
-        self.photons.capacity() * std::mem::size_of::<Photon>()
-            + self.photons.len() * (std::mem::size_of::<[f32; 3]>() + std::mem::size_of::<u32>())
+        self.photons.capacity() * size_of::<Photon>() + self.photons.len() * Self::TREE_BYTES
     }
 
     /// Calls `visit(photon, index, d²)` for every photon within `radius_sq` of `p` (in no

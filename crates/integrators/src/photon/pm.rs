@@ -39,7 +39,7 @@
 use super::camera::{self, CameraWalk, VisiblePoint};
 use super::config::{Indirect, PhotonMapConfig};
 use super::map::{PhotonMap, Search};
-use super::trace::{GROUPS, Keep, PhotonTracing, trace_photons};
+use super::trace::{GROUPS, Keep, PhotonTracing, stored_per_path, trace_photons, tracing_bytes};
 use crate::passes::{PassSpec, Schedule, run_passes, run_progressive_passes};
 use crate::paths::{PathClass, Router};
 use crate::render::{Counters, PixelVariance, Technique, named};
@@ -230,20 +230,24 @@ fn deposit(l: &mut Sink, group: usize, class: &PathClass, c: Rgb, counters: &mut
 impl PhotonMapper {
     /// The global and caustic maps (those asked for) of photons traced at instant `time` from the
     /// streams of `seed`.
+    /// How the global (`Keep::All`) or caustic (`Keep::Caustic`) map's photons are traced.
+    fn tracing(&self, keep: Keep) -> PhotonTracing {
+        PhotonTracing {
+            max_bounces: self.config.max_bounces.unwrap_or(u32::MAX),
+            roulette: self.config.roulette(),
+            keep,
+        }
+    }
+
     fn maps(&self, scene: &Scene, seed: u64, time: f32, counters: &mut Counters) -> Maps {
         let c = &self.config;
-        let tracing = |keep| PhotonTracing {
-            max_bounces: c.max_bounces.unwrap_or(u32::MAX),
-            roulette: c.roulette(),
-            keep,
-        };
         let global = (c.indirect != Indirect::Off).then(|| {
             PhotonMap::new(trace_photons(
                 scene,
                 seed,
                 (0, c.photons),
                 time,
-                tracing(Keep::All),
+                self.tracing(Keep::All),
                 counters,
             ))
         });
@@ -253,7 +257,7 @@ impl PhotonMapper {
                 seed ^ CAUSTIC_STREAM,
                 (0, c.caustic_photons),
                 time,
-                tracing(Keep::Caustic),
+                self.tracing(Keep::Caustic),
                 counters,
             ))
         });
@@ -369,8 +373,22 @@ impl PhotonMapper {
 }
 
 impl Integrator for PhotonMapper {
-    fn image_bytes(&self, scene: &Scene) -> u64 {
-        self.pass_spec(scene).bytes()
+    /// The images, and the maps: the global one built while the caustic one is traced, their
+    /// photon counts estimated from a pilot.
+    fn memory_bytes(&self, scene: &Scene) -> u64 {
+        let c = &self.config;
+        let time = scene.camera.shutter.0;
+        let stored = |on: bool, paths: u64, keep| {
+            if on {
+                paths as f64 * stored_per_path(scene, time, self.tracing(keep))
+            } else {
+                0.0
+            }
+        };
+        let global = stored(c.indirect != Indirect::Off, c.photons, Keep::All);
+        let caustic = stored(c.caustics, c.caustic_photons, Keep::Caustic);
+        let maps = tracing_bytes(global).max(PhotonMap::bytes_for(global) + tracing_bytes(caustic));
+        self.pass_spec(scene).bytes().saturating_add(maps as u64)
     }
 
     fn check_scene(&self, scene: &Scene) -> Result<(), String> {

@@ -42,7 +42,9 @@ use super::camera::{self, CameraWalk};
 use super::config::{ProgressiveConfig, RadiusUpdate};
 use super::grid::HashGrid;
 use super::map::{Kernel, PhotonMap};
-use super::trace::{Keep, Photon, PhotonTracing, Traced, trace_photons};
+use super::trace::{
+    Keep, Photon, PhotonTracing, Traced, stored_per_path, trace_photons, tracing_bytes,
+};
 use crate::film::Film;
 use crate::passes::{PassSpec, Schedule, run_progressive_passes};
 use crate::paths::Router;
@@ -119,6 +121,15 @@ impl Progressive {
         }
     }
 
+    /// How a pass's photons are traced: every non-specular vertex kept.
+    fn tracing(&self) -> PhotonTracing {
+        PhotonTracing {
+            max_bounces: self.config.max_bounces.unwrap_or(u32::MAX),
+            roulette: self.config.roulette(),
+            keep: Keep::All,
+        }
+    }
+
     fn name(&self) -> &'static str {
         match self.variant {
             Variant::Ppm => "Ppm",
@@ -152,11 +163,7 @@ impl Progressive {
             trace_glossy: c.trace_glossy,
             direct: true,
         };
-        let tracing = PhotonTracing {
-            max_bounces: max,
-            roulette: c.roulette(),
-            keep: Keep::All,
-        };
+        let tracing = self.tracing();
         let r1 = c.radius.resolve(scene.radius);
         let pixels: Vec<Mutex<PixelState>> = (0..width as usize * height as usize)
             .map(|_| {
@@ -374,14 +381,19 @@ fn gather(
 }
 
 impl Integrator for Progressive {
-    /// The images, and each pixel's progressive state: radius, photon count and three sums per
-    /// slot.
-    fn image_bytes(&self, scene: &Scene) -> u64 {
+    /// The images, each pixel's progressive state (radius, photon count and three sums per
+    /// slot), and a pass's photons traced while the last pass's map is still held, their count
+    /// estimated from a pilot.
+    fn memory_bytes(&self, scene: &Scene) -> u64 {
         let spec = self.pass_spec(scene);
         let state = size_of::<Mutex<PixelState>>() + 3 * spec.slots * size_of::<[f64; 3]>();
         let pixels = spec.width as u64 * spec.height as u64;
+        let photons = self.config.photons_per_pass as f64
+            * stored_per_path(scene, scene.camera.shutter.0, self.tracing());
+        let maps = PhotonMap::bytes_for(photons) + tracing_bytes(photons);
         spec.bytes()
             .saturating_add(pixels.saturating_mul(state as u64))
+            .saturating_add(maps as u64)
     }
 
     fn render_passes(

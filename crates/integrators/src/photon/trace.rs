@@ -119,6 +119,33 @@ pub fn photon_sampler(seed: u64, index: u64) -> Independent {
     sampler
 }
 
+/// Photon paths traced to estimate how many photons a map will hold ([`stored_per_path`]).
+const PILOT_PATHS: u64 = 4096;
+/// Seed of those paths' stream, which no render's photons use.
+const PILOT_SEED: u64 = 0x7069_6c6f_7470_6870;
+
+/// Photons stored per photon path traced at instant `time` as `how` says, estimated from
+/// `PILOT_PATHS` paths of a stream of their own (a few milliseconds): a map of n paths holds
+/// about n times as many. The memory check's estimate: from k pilot photons its relative standard
+/// error is about 1/√k (2 % for a global map, far more for rare caustic photons, which are then
+/// too few to matter).
+pub fn stored_per_path(scene: &Scene, time: f32, how: PhotonTracing) -> f64 {
+    let traced = trace_photons(
+        scene,
+        PILOT_SEED,
+        (0, PILOT_PATHS),
+        time,
+        how,
+        &mut Counters::default(),
+    );
+    traced.photons.len() as f64 / PILOT_PATHS as f64
+}
+
+/// Bytes of `photons` photons being traced: the chunks' photons and their merged copy.
+pub fn tracing_bytes(photons: f64) -> f64 {
+    photons * 2.0 * size_of::<Photon>() as f64
+}
+
 /// Photon groups of a photon map: its paths split into this many contiguous ranges of path index,
 /// whose estimates are independent and average to the map's.
 pub const GROUPS: usize = 16;

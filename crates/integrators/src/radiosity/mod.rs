@@ -389,7 +389,7 @@ impl Integrator for Radiosity {
         Some(&self.config.sampler)
     }
 
-    fn image_bytes(&self, scene: &Scene) -> u64 {
+    fn memory_bytes(&self, scene: &Scene) -> u64 {
         self.pass_spec(scene).bytes()
     }
 }

@@ -246,7 +246,7 @@ impl Integrator for Vcm {
 
     /// The images, and a pass's light subpaths: at least their first vertex, on the light, with
     /// its MIS quantities and its index.
-    fn image_bytes(&self, scene: &Scene) -> u64 {
+    fn memory_bytes(&self, scene: &Scene) -> u64 {
         let paths =
             scene.camera.width as u64 * scene.camera.height as u64 * self.config.light_paths as u64;
         let per_path = size_of::<PathVertex>() + size_of::<Quantities>() + size_of::<u32>();
