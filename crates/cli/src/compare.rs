@@ -19,7 +19,8 @@ pub struct CompareArgs {
     a: PathBuf,
     /// The image it is compared with (the reference).
     b: PathBuf,
-    /// Layer of A to use (default: `radiance`, else the unnamed channels, else the only layer).
+    /// Layer of A to use (default: `radiance`, else the unnamed channels, else the only layer);
+    /// its variance is the layer `<LAYER_A>.variance` (`variance` for `radiance`).
     #[arg(long)]
     layer_a: Option<String>,
     /// Layer of B to use (likewise).

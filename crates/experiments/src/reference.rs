@@ -287,9 +287,14 @@ pub fn load_foreign(
             }
             Some(var.mean)
         }
-        // Not pbrt-v4's `Variance` layer: it is the variance of one sample (S/(n − 1)), not of
-        // the pixel mean, and the file does not say n.
-        None => find(&layers, "variance"),
+        // The chosen layer's own: `<name>.variance` beside a named layer, `variance` beside the
+        // image (none for a variance layer itself). Not pbrt-v4's `Variance` layer: it is the
+        // variance of one sample (S/(n − 1)), not of the pixel mean, and the file does not say n.
+        None => match layer {
+            None | Some("radiance") | Some("") => find(&layers, "variance"),
+            Some(name) if name == "variance" || name.ends_with(".variance") => None,
+            Some(name) => find(&layers, &format!("{name}.variance")),
+        },
     };
     Ok(Image {
         width,

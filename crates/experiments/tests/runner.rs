@@ -409,6 +409,39 @@ fn foreign_exr_references_load() {
     write("prefixed.exr", "radiance.", "variance.");
     let prefixed = load_foreign(&dir.join("prefixed.exr"), None, None).unwrap();
     assert_eq!(prefixed, plain);
+    // A path-class layer comes with its own variance, `LDE.variance`, which a z-test of the layer
+    // must use (the image's `variance` made it far too lenient); a variance layer has none.
+    let quarter = |x: usize, y: usize| (0.25 * value(x, y).0, value(x, y).1, value(x, y).2);
+    let layer = Layer::new(
+        Vec2(w, h),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(smallvec::smallvec![
+            channel("radiance.R", &|x, y| value(x, y).0),
+            channel("radiance.G", &|x, y| value(x, y).1),
+            channel("radiance.B", &|x, y| value(x, y).2),
+            channel("variance.R", &|x, y| var(x, y).0),
+            channel("variance.G", &|x, y| var(x, y).1),
+            channel("variance.B", &|x, y| var(x, y).2),
+            channel("LDE.R", &|x, y| quarter(x, y).0),
+            channel("LDE.G", &|x, y| quarter(x, y).1),
+            channel("LDE.B", &|x, y| quarter(x, y).2),
+            channel("LDE.variance.R", &|x, y| 0.5 * var(x, y).0),
+            channel("LDE.variance.G", &|x, y| 0.5 * var(x, y).1),
+            channel("LDE.variance.B", &|x, y| 0.5 * var(x, y).2),
+        ]),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_file(dir.join("layers.exr"))
+        .unwrap();
+    let lde = load_foreign(&dir.join("layers.exr"), Some("LDE"), None).unwrap();
+    assert_eq!(lde.mean[7], [0.05, 1.0, 2.0]);
+    assert_eq!(lde.variance.as_ref().unwrap()[7], [1e-4, 5e-5, 5e-5]);
+    let image = load_foreign(&dir.join("layers.exr"), None, None).unwrap();
+    assert_eq!(image, plain);
+    let variance = load_foreign(&dir.join("layers.exr"), Some("LDE.variance"), None).unwrap();
+    assert_eq!(variance.variance, None);
     // A file with several unnamed candidates and no `radiance` says which layers it has.
     let e = load_foreign(&dir.join("prefixed.exr"), Some("beauty"), None).unwrap_err();
     assert!(e.contains("\"radiance\"") && e.contains("beauty"), "{e}");
