@@ -1,7 +1,7 @@
 //! `lightlab bench`: speed and error per sample of integrators, measured side by side in one run.
 
 use crate::progress::{Bar, Unit};
-use crate::render::parse_resolution;
+use crate::scene_args::parse_resolution;
 use clap::Args;
 use lightlab_core::NoProgress;
 use lightlab_experiments::atomic::write_atomic;

@@ -7,6 +7,7 @@ mod interrupt;
 mod progress;
 mod render;
 mod replay;
+mod scene_args;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

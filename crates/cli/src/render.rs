@@ -1,12 +1,12 @@
 //! `lightlab render`: one image of one scene with one integrator.
 
 use crate::progress::{Bar, Unit};
+use crate::scene_args::{SceneArgs, shell_quote};
 use clap::Args;
 use lightlab_experiments::atomic::write_atomic;
 use lightlab_experiments::image_io::{output_layers, write_exr, write_png};
 use lightlab_integrators::paths::Layers;
 use lightlab_integrators::{Budget, IntegratorConfig, PixelVariance, RenderStats};
-use lightlab_scene::{MAX_RESOLUTION, Scene};
 use lightlab_testkit::timing::try_cpu_seconds;
 use std::path::PathBuf;
 
@@ -15,8 +15,8 @@ use std::path::PathBuf;
 /// (statistics: time, samples, rays, non-finite samples).
 #[derive(Args)]
 pub struct RenderArgs {
-    /// Scene file: RON, or a Mitsuba 3 XML file (`.xml`; see scenes/README.md, "Mitsuba scenes").
-    scene: PathBuf,
+    #[command(flatten)]
+    source: SceneArgs,
     /// Integrator and its settings as RON, e.g. 'Path(max_bounces: 8, strategy: Mis)': Path,
     /// Light, Bdpt, PhotonMap, Ppm, Sppm, Vcm, Radiosity or Cone (README, "Integrators"). Default:
     /// a Mitsuba file's own integrator (its max_depth mapped to max_bounces), else 'Path()'.
@@ -27,10 +27,6 @@ pub struct RenderArgs {
     /// (ignored by cone tracing: one cone per pixel). Default: a Mitsuba file's sample_count, else 16.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..), conflicts_with = "seconds")]
     spp: Option<u32>,
-    /// A parameter of a Mitsuba scene, NAME=VALUE (repeatable), overriding its <default> like
-    /// Mitsuba's -D, e.g. `-D spp=64 -D res=512`.
-    #[arg(long = "define", short = 'D', value_name = "NAME=VALUE", value_parser = parse_define)]
-    define: Vec<(String, String)>,
     /// Render for this many wall-clock seconds instead of a sample count: samples continue until
     /// the time is spent, so the image is the one `--spp` would give at the count reached (see
     /// the README, "Time budgets").
@@ -47,16 +43,6 @@ pub struct RenderArgs {
     /// statistics are written beside it with the same stem, so nothing overwrites anything.
     #[arg(long, short, default_value = "out.exr")]
     output: PathBuf,
-    /// Override a value of the scene file, as PATH=VALUE with VALUE in RON (repeatable), e.g.
-    /// `--set camera.fov=60 --set 'materials.white.albedo=(0.5, 0.5, 0.5)' --set
-    /// 'shapes[2].material="glass"'`: field names, map keys and list indices. Only values written
-    /// in the file can be overridden.
-    #[arg(long = "set", value_name = "PATH=VALUE")]
-    set: Vec<String>,
-    /// Image size WIDTHxHEIGHT, overriding the scene's (the field of view along the smaller axis
-    /// is kept), e.g. 640x480.
-    #[arg(long, value_parser = parse_resolution)]
-    resolution: Option<(u32, u32)>,
     /// Render only the paths this Heckbert expression matches, e.g. 'LS+DE' (caustics); see the
     /// README's "Path classes". Overrides the integrator's `paths`.
     #[arg(long)]
@@ -80,24 +66,6 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
     }
 }
 
-/// `640x480` (or `640,480`).
-pub fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
-    let bad = || {
-        format!(
-            "'{s}' is not a resolution: write WIDTHxHEIGHT, e.g. 640x480, each 1…{MAX_RESOLUTION}"
-        )
-    };
-    let (w, h) = s.split_once(['x', 'X', ',']).ok_or_else(bad)?;
-    let (w, h): (u32, u32) = (
-        w.trim().parse().map_err(|_| bad())?,
-        h.trim().parse().map_err(|_| bad())?,
-    );
-    if !(1..=MAX_RESOLUTION).contains(&w) || !(1..=MAX_RESOLUTION).contains(&h) {
-        return Err(bad());
-    }
-    Ok((w, h))
-}
-
 /// The EXR path for `-o`: `.exr` as given, no extension gets `.exr`; anything else is refused,
 /// since the PNG and JSON written beside it would take that name.
 fn exr_path(output: &std::path::Path) -> Result<PathBuf, String> {
@@ -110,54 +78,6 @@ fn exr_path(output: &std::path::Path) -> Result<PathBuf, String> {
             output.display()
         )),
     }
-}
-
-/// `NAME=VALUE` of `-D`.
-fn parse_define(s: &str) -> Result<(String, String), String> {
-    match s.split_once('=') {
-        Some((n, v)) if !n.trim().is_empty() => Ok((n.trim().to_string(), v.to_string())),
-        _ => Err(format!("'{s}' is not NAME=VALUE, e.g. spp=64")),
-    }
-}
-
-/// The scene, and for a Mitsuba file the integrator and sample count it asks for.
-fn load(args: &RenderArgs) -> Result<(Scene, Option<String>, Option<u32>), String> {
-    if lightlab_scene::mitsuba::is_mitsuba(&args.scene) {
-        if !args.set.is_empty() {
-            return Err(format!(
-                "--set edits RON scenes; {} is a Mitsuba file: override its parameters with -D NAME=VALUE",
-                args.scene.display()
-            ));
-        }
-        let imported = lightlab_scene::mitsuba::import(&args.scene, &args.define)
-            .map_err(|e| e.to_string())?;
-        // The file's integrator matters only when none is given here.
-        let integrator = match (&args.integrator, imported.integrator) {
-            (None, Some(i)) => Some(i.map_err(|e| e.to_string())?),
-            _ => None,
-        };
-        let mut scene =
-            lightlab_scene::build_scene(imported.desc, &args.scene).map_err(|e| e.to_string())?;
-        scene.warnings.extend(imported.notes);
-        return Ok((scene, integrator, imported.spp));
-    }
-    if !args.define.is_empty() {
-        return Err(format!(
-            "-D sets parameters of Mitsuba scenes; {} is RON: use --set PATH=VALUE",
-            args.scene.display()
-        ));
-    }
-    let text = std::fs::read_to_string(&args.scene)
-        .map_err(|e| format!("{}: cannot read scene: {e}", args.scene.display()))?;
-    let text = lightlab_scene::overrides::apply_overrides(&text, &args.set)?;
-    let scene = lightlab_scene::parse_scene(&text, &args.scene).map_err(|e| {
-        if args.set.is_empty() {
-            e.to_string()
-        } else {
-            format!("{e} (after the --set overrides)")
-        }
-    })?;
-    Ok((scene, None, None))
 }
 
 pub fn run(args: RenderArgs) -> Result<(), String> {
@@ -181,7 +101,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
             .map_err(|e| format!("--seconds: {e}"))?;
     }
     let output = exr_path(&args.output)?;
-    let (mut scene, file_integrator, file_spp) = load(&args)?;
+    let (scene, file_integrator, file_spp) = args.source.load(args.integrator.is_some())?;
     let config = match (given, file_integrator) {
         (Some(c), _) => c,
         (None, Some(i)) => parse(&i, "the scene's integrator")?,
@@ -192,9 +112,6 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         Some(s) => Budget::Seconds(s),
         None => Budget::Samples(args.spp.or(file_spp).unwrap_or(16)),
     };
-    if let Some((w, h)) = args.resolution {
-        scene.camera = scene.camera.with_resolution(w, h);
-    }
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -207,7 +124,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let integrator = config.build()?;
     lightlab_integrators::memory::check_render(&*integrator, &scene)
-        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+        .map_err(|e| format!("{}: {e}", args.source.scene.display()))?;
     let bar = Bar::new("render", Unit::Percent);
     crate::interrupt::on_interrupt(|| {
         "interrupted: nothing was written (the EXR, PNG and JSON are written, atomically, when \
@@ -230,7 +147,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     write_png(&png, w, h, &layers[0].pixels, args.exposure).map_err(|e| e.to_string())?;
     let json_path = output.with_extension("json");
     let json = serde_json::json!({
-        "scene": args.scene.display().to_string(),
+        "scene": args.source.scene.display().to_string(),
         "integrator": config.to_ron(),
         "lightlab_version": env!("CARGO_PKG_VERSION"),
         "render_cpu_seconds": cpu_seconds,
@@ -276,11 +193,17 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     if !out.outliers.is_empty() {
         let path = output.with_extension("outliers.json");
         let json = serde_json::json!({
-            "scene": args.scene.display().to_string(),
+            "scene": args.source.scene.display().to_string(),
             "integrator": config.to_ron(),
             "seed": args.seed,
             "spp": out.stats.spp,
-            "replay": "lightlab replay SCENE --integrator '…' --seed SEED --spp SPP --pixel X,Y --sample I",
+            "replay": format!(
+                "lightlab replay {} --integrator {} --seed {} --spp {} --pixel X,Y --sample I",
+                args.source.command_line(),
+                shell_quote(&config.to_ron()),
+                args.seed,
+                out.stats.spp
+            ),
             "outliers": out.outliers,
         });
         write_atomic(

@@ -1,12 +1,12 @@
 //! `lightlab replay`: recompute one pixel sample of a bidirectional render (BDPT or VCM), every
 //! technique's contribution with its provenance, from (seed, pixel, sample index) alone.
 
+use crate::scene_args::SceneArgs;
 use clap::Args;
 use lightlab_integrators::IntegratorConfig;
 use lightlab_integrators::Vcm;
 use lightlab_integrators::bdpt::Bdpt;
 use std::io::Write;
-use std::path::PathBuf;
 
 /// Replay one pixel sample of a `Bdpt` or `Vcm` render deterministically — e.g. an outlier from
 /// OUT.outliers.json — and print every technique's contribution: (s, t) (and `merge` for a VCM
@@ -14,8 +14,9 @@ use std::path::PathBuf;
 /// densities, as JSON. For `Vcm` the sample index is the pass, whose light subpaths are retraced.
 #[derive(Args)]
 pub struct ReplayArgs {
-    /// Scene file (RON).
-    scene: PathBuf,
+    /// The scene as the render read it (give the same --set, -D and --resolution).
+    #[command(flatten)]
+    source: SceneArgs,
     /// The render's integrator settings (`Bdpt(...)` or `Vcm(...)`).
     #[arg(long, short)]
     integrator: String,
@@ -51,7 +52,7 @@ pub fn run(args: ReplayArgs) -> Result<(), String> {
     if !matches!(config, IntegratorConfig::Bdpt(_) | IntegratorConfig::Vcm(_)) {
         return Err("replay works on Bdpt(...) and Vcm(...) renders".into());
     }
-    let scene = lightlab_scene::load_scene(&args.scene).map_err(|e| e.to_string())?;
+    let (scene, _, _) = args.source.load(true)?;
     let (w, h) = (scene.camera.width, scene.camera.height);
     if args.pixel.0 >= w || args.pixel.1 >= h {
         return Err(format!(

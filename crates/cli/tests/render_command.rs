@@ -591,3 +591,68 @@ fn mitsuba_files_render_with_their_settings_and_defines() {
     let (ok, _, stderr) = render_with(&repo().join("scenes/cornell-box.ron"), &["-D", "a=1"], &out);
     assert!(!ok && stderr.contains("use --set"), "{stderr}");
 }
+
+/// The replay command an outlier file gives reproduces its outliers from a render whose scene was
+/// changed on the command line (`--resolution`, `--set`): it carries those changes, quoted for the
+/// shell. Without them it replayed the scene file's own 256×256 image.
+#[test]
+fn outliers_replay_from_the_command_they_name() {
+    let dir = temp_dir("replay");
+    let out = dir.join("bdpt.exr");
+    let status = lightlab()
+        .args(["render"])
+        .arg(repo().join("scenes/caustic-sphere.ron"))
+        .args([
+            "--resolution",
+            "32x24",
+            "--set",
+            "camera.fov=41",
+            "--spp",
+            "32",
+            "--seed",
+            "4",
+        ])
+        .args([
+            "-i",
+            "Bdpt(max_bounces: 6, outliers: 20, mis: Uniform)",
+            "-o",
+        ])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let log: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.with_extension("outliers.json")).unwrap())
+            .unwrap();
+    let command = log["replay"].as_str().unwrap();
+    assert!(command.contains("--resolution 32x24") && command.contains("--set camera.fov=41"));
+    let outliers = log["outliers"].as_array().unwrap();
+    assert!(!outliers.is_empty());
+    for o in outliers.iter().take(3) {
+        let line = command
+            .replacen("lightlab", env!("CARGO_BIN_EXE_lightlab"), 1)
+            .replace("X,Y", &format!("{},{}", o["pixel"][0], o["pixel"][1]))
+            .replace("--sample I", &format!("--sample {}", o["sample"]));
+        let replay = Command::new("sh").args(["-c", &line]).output().unwrap();
+        assert!(
+            replay.status.success(),
+            "{line}: {}",
+            String::from_utf8_lossy(&replay.stderr)
+        );
+        let replayed: serde_json::Value = serde_json::from_slice(&replay.stdout).unwrap();
+        // Values are f32, printed at f32 precision by one and widened to f64 by the other.
+        let value = |v: &serde_json::Value| {
+            let v = v.as_array().unwrap();
+            v.iter()
+                .map(|c| c.as_f64().unwrap() as f32)
+                .collect::<Vec<_>>()
+        };
+        assert!(
+            replayed.as_array().unwrap().iter().any(|r| {
+                (&r["s"], &r["t"], value(&r["value"])) == (&o["s"], &o["t"], value(&o["value"]))
+            }),
+            "{line} does not reproduce {o}"
+        );
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
