@@ -195,6 +195,37 @@ fn cone_tracing_refuses_what_it_cannot_trace() {
                               emission: (radiance: (1, 1, 1)))])",
     );
     assert!(cone.check_scene(&lens).unwrap_err().contains("pinhole"));
+    // The shading leaves a light's own shape out, so a light that can light itself is refused:
+    // the furnace (camera inside an emitting sphere, where Cone rendered Lₑ for Lₑ(1 + ρ)) and a
+    // folded, concave emitting mesh; a flat one and a sphere seen from outside are rendered.
+    let furnace = lightlab_scene::load_scene(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/furnace.ron"),
+    )
+    .unwrap();
+    assert!(
+        cone.check_scene(&furnace)
+            .unwrap_err()
+            .contains("can light itself")
+    );
+    let mesh = |positions: &str| {
+        scene(&format!(
+            "Scene(camera: Camera(eye: (0, 1, 3), target: (0, 0, 0), fov: 40, resolution: (4, 4)),
+                   materials: {{ \"w\": Diffuse(albedo: (0.5, 0.5, 0.5)) }},
+                   shapes: [Shape(geometry: Mesh(positions: [{positions}],
+                                                 indices: [(0, 1, 2), (3, 4, 5)]),
+                                  material: \"w\", emission: (radiance: (1, 1, 1)))])"
+        ))
+    };
+    // Two triangles facing +y side by side, then the second folded up to face the first.
+    let flat = mesh("(0, 0, 0), (1, 0, 0), (0, 0, -1), (0, 0, 0), (0, 0, 1), (1, 0, 0)");
+    let folded = mesh("(0, 0, 0), (1, 0, 0), (0, 0, -1), (0, 0, 0), (0, 1, 0), (1, 0, 0)");
+    cone.check_scene(&flat).unwrap();
+    assert!(
+        cone.check_scene(&folded)
+            .unwrap_err()
+            .contains("can light itself")
+    );
+    cone.check_scene(&sphere_on_plane((4, 4))).unwrap();
     for (bad, words) in [
         ("Cone(max_bounces: 2)", "max_bounces must be 0 or 1"),
         ("Cone(min_bounces: 1, max_bounces: 0)", "min_bounces"),

@@ -333,6 +333,17 @@ fn check(scene: &Scene) -> Result<(), String> {
              scene has {kind}"
         ));
     }
+    let solids = Solid::of(scene);
+    for e in Emitter::of(scene) {
+        if lights_itself(&solids[e.shape], &e, scene.camera.eye, scene.radius) {
+            return Err(format!(
+                "cone tracing lights a surface by the other lights only, and the light on shape \
+                 {} can light itself: a concave or two-sided closed mesh, or a sphere the camera \
+                 is inside; render it with Path(max_bounces: 1)",
+                e.shape
+            ));
+        }
+    }
     for (shape, i) in scene.shapes().iter().zip(0..) {
         let material = &scene.materials[shape.material as usize];
         let name = &scene.material_names[shape.material as usize];
@@ -344,6 +355,21 @@ fn check(scene: &Scene) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Whether emitter `e` can light its own shape `solid`, which the shading leaves out: a vertex of
+/// the shape in front of one of its emitting triangles (beyond `1e-5 · scale`; never for a plane or
+/// a closed convex mesh facing out), or a sphere whose inside the camera at `eye` sees.
+fn lights_itself(solid: &Solid, e: &Emitter, eye: Vec3, scale: f32) -> bool {
+    match solid {
+        Solid::Mesh(tris) => tris.iter().any(|(a, n)| {
+            tris.iter().flat_map(|(v, _)| v).any(|&p| {
+                let height = n.dot(p - a[0]);
+                height > 1e-5 * scale || (e.two_sided && height < -1e-5 * scale)
+            })
+        }),
+        &Solid::Sphere { centre, radius } => eye.distance(centre) < radius,
+    }
 }
 
 impl Integrator for Cone {
