@@ -129,7 +129,8 @@ pub trait Integrator: Send + Sync {
     /// Renders `scene` within `budget`. A time budget continues the sample sequence until the
     /// time is spent (the same estimator as the sample budget it reaches); with a sampler that
     /// needs its sample count up front, a calibrated pilot (renders of 1, 2, 4, … samples per
-    /// pixel with another seed, until one takes 2 % of the budget or all 4 %) measures the time
+    /// pixel with another seed, until one takes 2 % of the budget or all 4 %, and at least 10 ms
+    /// or all 20 ms, below which timing noise dominated) measures the time
     /// per sample, and the render is `Budget::Samples(N)` with the N that fills the rest of the
     /// budget, rounded down to a count the sampler stratifies well (`best_sample_count`: no
     /// N-rooks fallback for `Stratified`). The pilot's time counts in `wall_seconds` (and is reported as `pilot_seconds`).
@@ -154,8 +155,8 @@ pub trait Integrator: Send + Sync {
                         &mut |_, _| true,
                     );
                     let dt = t0.elapsed().as_secs_f64();
-                    if dt >= 0.02 * seconds
-                        || start.elapsed().as_secs_f64() >= 0.04 * seconds
+                    if dt >= (0.02 * seconds).max(0.01)
+                        || start.elapsed().as_secs_f64() >= (0.04 * seconds).max(0.02)
                         || spp >= 1 << 20
                     {
                         break dt / spp as f64;
