@@ -4,6 +4,7 @@ use crate::progress::{Bar, Unit};
 use clap::Args;
 use indicatif::MultiProgress;
 use lightlab_experiments::desc::load_experiment;
+use lightlab_experiments::plan::expand;
 use lightlab_experiments::report::{finished_runs, plot_from_csv, write_report};
 use lightlab_experiments::runner::{RunOptions, merge, output_dir, run_experiment, write_source};
 use std::io::IsTerminal;
@@ -182,12 +183,31 @@ pub fn report(args: ReportArgs) -> Result<(), String> {
             missing[0]
         ));
     }
+    // Runs the experiment plans that have no results (not run yet, or deleted): the settings
+    // they belong to are summarised from fewer trials, which the report cannot tell by itself.
+    let planned = expand(&desc, &args.experiment).map_err(|e| e.to_string())?;
+    let finished: std::collections::BTreeSet<&str> = runs.iter().map(|r| r.id.as_str()).collect();
+    let unfinished: Vec<&str> = planned
+        .iter()
+        .map(|r| r.id.as_str())
+        .filter(|id| !finished.contains(id))
+        .collect();
+    if let Some(first) = unfinished.first() {
+        eprintln!(
+            "warning: {} of the experiment's {} runs have no results (first: {first}); their \
+             settings are summarised from the trials there are: `lightlab run {}` renders them",
+            unfinished.len(),
+            planned.len(),
+            args.experiment.display()
+        );
+    }
     write_source(&args.experiment, &out_dir)?;
     write_report(&out_dir).map_err(|e| e.to_string())?;
     println!(
-        "wrote {} from {} runs (and runs.csv, summary.json, the plots)",
+        "wrote {} from {} of {} runs (and runs.csv, summary.json, the plots)",
         out_dir.join("index.html").display(),
-        runs.len()
+        runs.len(),
+        planned.len()
     );
     Ok(())
 }

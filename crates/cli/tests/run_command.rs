@@ -406,5 +406,20 @@ fn report_rebuilds_from_disk_and_refuses_without_images() {
         std::fs::read(dir.join("res/cli/summary.json")).unwrap(),
         summary
     );
+
+    // A run directory gone altogether: the report is rebuilt from the other runs, and says that
+    // one of the experiment's runs has no results.
+    std::fs::remove_dir_all(&run).unwrap();
+    let partial = lightlab(&["report", "e.ron", "--results", "res"], &dir);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&partial.stdout),
+        String::from_utf8_lossy(&partial.stderr),
+    );
+    assert!(
+        partial.status.success()
+            && stderr.contains("1 of the experiment's 4 runs have no results")
+            && stdout.contains("from 3 of 4 runs"),
+        "{stdout}{stderr}"
+    );
     std::fs::remove_dir_all(dir).unwrap();
 }
