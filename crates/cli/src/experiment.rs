@@ -306,7 +306,7 @@ pub fn convergence(args: ConvergenceArgs) -> Result<(), String> {
     write_atomic(&dir.join("convergence.csv"), csv.as_bytes()).map_err(io)?;
     let json = serde_json::json!({
         "max_spp": study.max_spp, "seeds": study.seeds, "fit_from": study.fit_from,
-        "fit": "weighted least squares of ln MSE on ln spp over spp ≥ fit_from, each point weighted by its own standard error (disjoint seeds per sample count); slope_ci95 is the half-width of the 95 % interval, widened by sqrt(chi2/dof) when that exceeds 1",
+        "fit": "weighted least squares of ln MSE on ln spp over spp ≥ fit_from, each point weighted by its own standard error (disjoint seeds per sample count); slope_ci95 is the half-width of the 95 % interval (1.96 standard errors, or, when chi2/dof exceeds 1, Student's t on n − 2 degrees of freedom times the standard error widened by sqrt(chi2/dof); null when it cannot be bounded)",
         "rates": rates,
     });
     write_atomic(
@@ -320,9 +320,17 @@ pub fn convergence(args: ConvergenceArgs) -> Result<(), String> {
         let svg = lightlab_experiments::plot::render_svg(&plot(f.name, &points, &rates))?;
         write_atomic(&dir.join(format!("{}.svg", f.name)), svg.as_bytes()).map_err(io)?;
     }
+    // The sample counts fitted: the powers of two from --fit-from to --max-spp.
+    let counts = || (0..32).map(|k| 1u64 << k);
+    let first = counts().find(|&n| n >= study.fit_from as u64).unwrap_or(0);
+    let last = counts()
+        .take_while(|&n| n <= study.max_spp as u64)
+        .last()
+        .unwrap_or(0);
     println!(
-        "log–log slope of MSE against samples (spp {}…{}, {} seeds), ± 95 % interval:",
-        study.fit_from, study.max_spp, study.seeds
+        "log–log slope of MSE against samples (spp {first}…{last}, {} seeds), ± 95 % interval \
+         (— where too few points have a standard error to bound it):",
+        study.seeds
     );
     print!("{:<15}", "function");
     let samplers = lightlab_samplers::SamplerConfig::ALL;
@@ -337,10 +345,11 @@ pub fn convergence(args: ConvergenceArgs) -> Result<(), String> {
                 .iter()
                 .find(|r| r.function == f.name && r.sampler == s.name())
             {
-                Some(r) => print!(
+                Some(r) if r.fit.slope_ci95.is_finite() => print!(
                     "{:>18}",
                     format!("{:.2} ± {:.2}", r.fit.slope, r.fit.slope_ci95)
                 ),
+                Some(r) => print!("{:>18}", format!("{:.2} ± —", r.fit.slope)),
                 None => print!("{:>18}", "—"),
             }
         }
