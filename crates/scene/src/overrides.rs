@@ -13,6 +13,7 @@ pub fn set_value(text: &str, path: &str, value: &str) -> Result<String, String> 
     let mut scanner = Scanner {
         s: text.as_bytes(),
         i: 0,
+        in_value: false,
     };
     scanner.skip();
     let (start, end) = scanner.find(&segments, path)?;
@@ -31,6 +32,7 @@ fn one_value(value: &str) -> Result<&str, String> {
     let mut v = Scanner {
         s: value.as_bytes(),
         i: 0,
+        in_value: true,
     };
     let (start, end) = v
         .value()
@@ -94,6 +96,8 @@ fn parse_path(path: &str) -> Result<Vec<Segment>, String> {
 struct Scanner<'a> {
     s: &'a [u8],
     i: usize,
+    /// Scanning the `--set` value rather than the scene file (errors then point into the value).
+    in_value: bool,
 }
 
 impl Scanner<'_> {
@@ -124,11 +128,11 @@ impl Scanner<'_> {
     }
 
     fn err(&self, what: &str) -> String {
-        let line = self.s[..self.i.min(self.s.len())]
-            .iter()
-            .filter(|&&c| c == b'\n')
-            .count()
-            + 1;
+        let at = self.i.min(self.s.len());
+        if self.in_value {
+            return format!("{what} (at character {} of the value)", at + 1);
+        }
+        let line = self.s[..at].iter().filter(|&&c| c == b'\n').count() + 1;
         format!("{what} (at line {line} of the scene)")
     }
 
@@ -356,6 +360,12 @@ Scene(
             let e = set_value(SCENE, "camera.fov", value).unwrap_err();
             assert!(e.contains("value"), "{value}: {e}");
         }
+        // A fault inside the value points into the value, not at a line of the scene.
+        let e = set_value(SCENE, "camera.fov", "(1,2").unwrap_err();
+        assert!(
+            e.contains("at character 5 of the value") && !e.contains("scene"),
+            "{e}"
+        );
         let t = set_value(SCENE, "camera.eye", " (1, /* up */ 2, 3) ").unwrap();
         assert!(t.contains("eye: (1, /* up */ 2, 3),"), "{t}");
     }
