@@ -98,25 +98,30 @@ impl Validate for BdptConfig {
                 "outliers is a multiple of the pixel's mean and must be finite and > 1, got {f}"
             ));
         }
-        check_strategy_layers(self.strategy_layers, self.max_bounces, "strategy")
+        check_strategy_layers(
+            self.strategy_layers,
+            self.max_bounces,
+            ("strategy", "strategies"),
+        )
     }
 }
 
 /// The most bounces `strategy_layers` writes a layer pair for every strategy of.
 const MAX_STRATEGY_LAYER_BOUNCES: u32 = 16;
 
-/// `strategy_layers` (BDPT's strategies, VCM's techniques: `what`) needs `max_bounces`, at most
+/// `strategy_layers` (BDPT's strategies, VCM's techniques: `what`, singular and plural) needs
+/// `max_bounces`, at most
 /// [`MAX_STRATEGY_LAYER_BOUNCES`]: each strategy is a weighted and an unweighted full-image layer,
 /// (m + 2)(m + 3)/2 − 1 strategies for BDPT, so 200 bounces made 40 000 layers, which ran out of
 /// memory or took minutes to write.
 pub(crate) fn check_strategy_layers(
     on: bool,
     max_bounces: Option<u32>,
-    what: &str,
+    (what, whats): (&str, &str),
 ) -> Result<(), ConfigError> {
     match (on, max_bounces) {
         (true, None) => invalid(format!(
-            "strategy_layers needs max_bounces (it bounds the number of {what}s)"
+            "strategy_layers needs max_bounces (it bounds the number of {whats})"
         )),
         (true, Some(m)) if m > MAX_STRATEGY_LAYER_BOUNCES => invalid(format!(
             "strategy_layers allows max_bounces up to {MAX_STRATEGY_LAYER_BOUNCES} (each {what} \

@@ -137,7 +137,11 @@ impl Validate for VcmConfig {
                 "outliers is a multiple of the pixel's mean and must be finite and > 1, got {f}"
             ));
         }
-        crate::bdpt::check_strategy_layers(self.strategy_layers, self.max_bounces, "technique")
+        crate::bdpt::check_strategy_layers(
+            self.strategy_layers,
+            self.max_bounces,
+            ("technique", "techniques"),
+        )
     }
 }
 
