@@ -6,7 +6,9 @@ use indicatif::MultiProgress;
 use lightlab_experiments::desc::load_experiment;
 use lightlab_experiments::plan::expand;
 use lightlab_experiments::report::{finished_runs, plot_from_csv, write_report};
-use lightlab_experiments::runner::{RunOptions, merge, output_dir, run_experiment, write_source};
+use lightlab_experiments::runner::{
+    ExperimentIdentity, RunOptions, merge, output_dir, run_experiment, write_source,
+};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -186,6 +188,10 @@ pub fn report(args: ReportArgs) -> Result<(), String> {
     // Runs the experiment plans that have no results (not run yet, or deleted): the settings
     // they belong to are summarised from fewer trials, which the report cannot tell by itself.
     let planned = expand(&desc, &args.experiment).map_err(|e| e.to_string())?;
+    // Not runs of another version of the experiment, or of other inputs.
+    if let Some(found) = ExperimentIdentity::read(&out_dir) {
+        ExperimentIdentity::of(&desc, &args.experiment, &planned)?.check(&found, &out_dir)?;
+    }
     let finished: std::collections::BTreeSet<&str> = runs.iter().map(|r| r.id.as_str()).collect();
     let unfinished: Vec<&str> = planned
         .iter()

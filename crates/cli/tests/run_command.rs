@@ -221,7 +221,10 @@ fn merge_refuses_foreign_and_incomplete_shards() {
         )
     };
     let (ok, _, err) = merge(&["a/cli", "c/cli"], &[]);
-    assert!(!ok && err.contains("another experiment"), "{err}");
+    assert!(
+        !ok && err.contains("another version") && err.contains("not a shard of"),
+        "{err}"
+    );
     let (ok, _, err) = merge(&["a/cli", "b/cli"], &[]);
     assert!(
         !ok && err.contains("in none of the shards") && err.contains("--partial"),
@@ -237,6 +240,77 @@ fn merge_refuses_foreign_and_incomplete_shards() {
         err.contains("partial merge: 1 runs") && err.contains("more than one shard"),
         "{err}"
     );
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// Finished runs are reused only for the inputs they were measured on: after a scene's contents,
+/// the resolution, the reference or the path classes change, `run`, `report` and `merge` refuse
+/// the old results (a resumed sweep mixed 64² and 32² runs, and two references, silently). A
+/// results directory from before the inputs were recorded is taken on its runs, and upgraded.
+#[test]
+fn results_of_other_inputs_are_refused() {
+    let dir = temp_dir("inputs");
+    std::fs::write(dir.join("s.ron"), SCENE).unwrap();
+    std::fs::write(dir.join("e.ron"), EXPERIMENT).unwrap();
+    let run = |file: &str| lightlab(&["run", file, "--results", "r"], &dir);
+    assert!(run("e.ron").status.success());
+    let identity = dir.join("r/cli/experiment.json");
+    let recorded = std::fs::read_to_string(&identity).unwrap();
+    assert!(recorded.contains("inputs_hash"), "{recorded}");
+    // Nothing changed: everything is reused.
+    let again = run("e.ron");
+    assert!(
+        again.status.success() && String::from_utf8_lossy(&again.stdout).contains("0 rendered now")
+    );
+    for (what, file, text) in [
+        (
+            "scene",
+            "s.ron",
+            SCENE.replace("0.5, 0.5, 0.5", "0.6, 0.6, 0.6"),
+        ),
+        (
+            "resolution",
+            "e.ron",
+            EXPERIMENT.replace("trials: 2,", "trials: 2, resolution: (3, 2),"),
+        ),
+        (
+            "reference",
+            "e.ron",
+            EXPERIMENT.replace("spp: 32", "spp: 64"),
+        ),
+        (
+            "classes",
+            "e.ron",
+            EXPERIMENT.replace("trials: 2,", "trials: 2, classes: [\"LE\"],"),
+        ),
+    ] {
+        std::fs::write(dir.join(file), &text).unwrap();
+        for command in [
+            &["run", "e.ron", "--results", "r"][..],
+            &["report", "e.ron", "--results", "r"],
+        ] {
+            let out = lightlab(command, &dir);
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(
+                !out.status.success() && err.contains("measured on other inputs"),
+                "{what}, {command:?}: {err}"
+            );
+        }
+        std::fs::write(dir.join("s.ron"), SCENE).unwrap();
+        std::fs::write(dir.join("e.ron"), EXPERIMENT).unwrap();
+    }
+    // An identity written before inputs were recorded.
+    let legacy: String = recorded
+        .lines()
+        .filter(|l| !l.contains("inputs_hash"))
+        .collect::<Vec<_>>()
+        .join("\n")
+        .replace("\",\n}", "\"\n}");
+    let parsed: serde_json::Value = serde_json::from_str(&legacy).unwrap();
+    assert!(parsed.get("runs_hash").is_some() && parsed.get("inputs_hash").is_none());
+    std::fs::write(&identity, &legacy).unwrap();
+    assert!(run("e.ron").status.success());
+    assert_eq!(std::fs::read_to_string(&identity).unwrap(), recorded);
     std::fs::remove_dir_all(dir).unwrap();
 }
 

@@ -4,7 +4,7 @@
 //! An interrupted sweep therefore resumes where it stopped; shards run disjoint slices of it.
 
 use crate::atomic::write_atomic;
-use crate::desc::{BudgetDesc, ExperimentDesc, load_experiment};
+use crate::desc::{BudgetDesc, ExperimentDesc, ReferenceDesc, load_experiment};
 use crate::image_io::{output_layers, write_exr};
 use crate::metrics::{Errors, errors};
 use crate::plan::{RunSpec, expand, shard};
@@ -44,30 +44,94 @@ impl RunOptions {
 }
 
 /// What identifies an experiment's runs (`experiment.json` in its output directory): a hash of
-/// every resolved run id, so that shards of one experiment, and only those, merge.
+/// every resolved run id (what each run renders: scene, method, settings, budget, trial, seed),
+/// and a hash of what they are measured on and against, so that shards of one experiment, and
+/// only those, merge, and finished runs are reused only for the experiment that made them.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct ExperimentIdentity {
     pub name: String,
     pub runs: usize,
     pub runs_hash: String,
+    /// Every scene's contents (with the meshes and images it reads), the resolution, the
+    /// reference (its settings, or the files' contents) and the path classes. `None` in output
+    /// directories written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inputs_hash: Option<String>,
 }
 
 impl ExperimentIdentity {
-    fn of(desc: &ExperimentDesc, runs: &[RunSpec]) -> ExperimentIdentity {
+    /// The identity of experiment `desc` (read from `path`) expanded into `runs`.
+    pub fn of(
+        desc: &ExperimentDesc,
+        path: &Path,
+        runs: &[RunSpec],
+    ) -> Result<ExperimentIdentity, String> {
         let ids: String = runs
             .iter()
             .map(|r| r.id.as_str())
             .collect::<Vec<_>>()
             .join("\n");
-        ExperimentIdentity {
+        let base = path.parent().unwrap_or(Path::new("."));
+        let file_hash = |p: &Path| {
+            std::fs::read(p)
+                .map(|bytes| crate::plan::fnv1a(&bytes))
+                .map_err(|e| format!("{}: {e}", p.display()))
+        };
+        let mut inputs = format!(
+            "resolution:{:?}\nreference:{:?}\nclasses:{:?}",
+            desc.resolution, desc.reference, desc.classes
+        );
+        if let ReferenceDesc::Exr { path, variance, .. } = &desc.reference {
+            for p in std::iter::once(path).chain(variance) {
+                inputs += &format!("\nreference file:{:016x}", file_hash(&base.join(p))?);
+            }
+        }
+        for scene in &desc.scenes {
+            let (_, text) = load_scene(&base.join(scene), desc.resolution)?;
+            inputs += &format!(
+                "\nscene:{}:{:016x}",
+                scene.display(),
+                crate::plan::fnv1a(text.as_bytes())
+            );
+        }
+        Ok(ExperimentIdentity {
             name: desc.name.clone(),
             runs: runs.len(),
             runs_hash: format!("{:016x}", crate::plan::fnv1a(ids.as_bytes())),
-        }
+            inputs_hash: Some(format!("{:016x}", crate::plan::fnv1a(inputs.as_bytes()))),
+        })
     }
 
-    fn read(dir: &Path) -> Option<ExperimentIdentity> {
+    pub fn read(dir: &Path) -> Option<ExperimentIdentity> {
         serde_json::from_str(&std::fs::read_to_string(dir.join("experiment.json")).ok()?).ok()
+    }
+
+    /// `Err` saying why the results in `dir`, of identity `found`, are not of this experiment. A
+    /// directory from before the inputs were recorded is taken on its runs alone.
+    pub fn check(&self, found: &ExperimentIdentity, dir: &Path) -> Result<(), String> {
+        if (&found.name, found.runs, &found.runs_hash) != (&self.name, self.runs, &self.runs_hash) {
+            return Err(format!(
+                "{} holds the results of another version of experiment {:?} ({} runs, hash {}; \
+                 this file expands to {} runs, hash {}): move them away, or use another --results",
+                dir.display(),
+                found.name,
+                found.runs,
+                found.runs_hash,
+                self.runs,
+                self.runs_hash
+            ));
+        }
+        match &found.inputs_hash {
+            Some(h) if Some(h) != self.inputs_hash.as_ref() => Err(format!(
+                "{} holds runs of experiment {:?} measured on other inputs: a scene's contents, \
+                 the resolution, the reference or the path classes have changed since (inputs \
+                 hash {h}, now {}); move them away, or use another --results",
+                dir.display(),
+                self.name,
+                self.inputs_hash.as_deref().unwrap_or("none")
+            )),
+            _ => Ok(()),
+        }
     }
 }
 
@@ -197,7 +261,7 @@ pub fn run_experiment(
     let desc = load_experiment(path).map_err(|e| e.to_string())?;
     let mut runs = expand(&desc, path).map_err(|e| e.to_string())?;
     let total = runs.len();
-    let identity = ExperimentIdentity::of(&desc, &runs);
+    let identity = ExperimentIdentity::of(&desc, path, &runs)?;
     if let Some((i, n)) = options.shard {
         runs = shard(runs, i, n);
     }
@@ -207,25 +271,15 @@ pub fn run_experiment(
         .references
         .clone()
         .unwrap_or_else(|| options.results.join("references"));
-    match ExperimentIdentity::read(&out_dir) {
-        Some(found) if found != identity => {
-            return Err(format!(
-                "{} holds the results of another version of experiment {:?} ({} runs, hash {}; \
-                 this file expands to {} runs, hash {}): move them away, or use another --results",
-                out_dir.display(),
-                desc.name,
-                found.runs,
-                found.runs_hash,
-                identity.runs,
-                identity.runs_hash
-            ));
-        }
-        Some(_) => {}
-        None => {
-            let json = serde_json::to_string_pretty(&identity).map_err(|e| e.to_string())?;
-            write_atomic(&out_dir.join("experiment.json"), json.as_bytes())
-                .map_err(|e| format!("{}: {e}", out_dir.display()))?;
-        }
+    let found = ExperimentIdentity::read(&out_dir);
+    if let Some(found) = &found {
+        identity.check(found, &out_dir)?;
+    }
+    // New, or from before the inputs were recorded: record them now.
+    if found.as_ref() != Some(&identity) {
+        let json = serde_json::to_string_pretty(&identity).map_err(|e| e.to_string())?;
+        write_atomic(&out_dir.join("experiment.json"), json.as_bytes())
+            .map_err(|e| format!("{}: {e}", out_dir.display()))?;
     }
     write_source(path, &out_dir)?;
     // A scene, loaded once, with its reference (found in the cache, rendered, or read).
@@ -446,28 +500,19 @@ pub fn merge(
 ) -> Result<MergeOutcome, String> {
     let desc = load_experiment(path).map_err(|e| e.to_string())?;
     let runs = expand(&desc, path).map_err(|e| e.to_string())?;
-    let identity = ExperimentIdentity::of(&desc, &runs);
+    let identity = ExperimentIdentity::of(&desc, path, &runs)?;
+    if let Some(found) = ExperimentIdentity::read(out_dir) {
+        identity.check(&found, out_dir)?;
+    }
     let expected: std::collections::BTreeSet<&str> = runs.iter().map(|r| r.id.as_str()).collect();
     // (run id, directory it comes from), in shard order.
     let mut sources: BTreeMap<String, PathBuf> = BTreeMap::new();
     let mut duplicated = 0;
     for shard_dir in shard_dirs {
         match ExperimentIdentity::read(shard_dir) {
-            Some(found) if found == identity => {}
-            Some(found) => {
-                return Err(format!(
-                    "{} is a shard of another experiment ({:?}, {} runs, hash {}), not of {} \
-                     ({:?}, {} runs, hash {})",
-                    shard_dir.display(),
-                    found.name,
-                    found.runs,
-                    found.runs_hash,
-                    path.display(),
-                    identity.name,
-                    identity.runs,
-                    identity.runs_hash
-                ));
-            }
+            Some(found) => identity
+                .check(&found, shard_dir)
+                .map_err(|e| format!("{e} (not a shard of {})", path.display()))?,
             None => {
                 return Err(format!(
                     "{} has no experiment.json: it is not the output directory of a `lightlab \
