@@ -23,7 +23,7 @@ const REFERENCE_SEED: u64 = 0x0005_EED0_F2EF;
 /// of such scenes are too dark there); 4 since one-sample references and motion-blurred
 /// `PhotonMap`, `Radiosity` and `Cone` references say their variance is no estimate of the
 /// variance of the mean (it was subtracted from the errors).
-const REFERENCE_FORMAT: u32 = 4;
+pub(crate) const REFERENCE_FORMAT: u32 = 4;
 
 /// A reference and where it came from.
 pub struct Reference {

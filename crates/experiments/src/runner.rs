@@ -53,7 +53,8 @@ pub struct ExperimentIdentity {
     pub runs: usize,
     pub runs_hash: String,
     /// Every scene's contents (with the meshes and images it reads), the resolution, the
-    /// reference (its settings, or the files' contents) and the path classes. `None` in output
+    /// reference (its settings and the version of what the reference cache holds, or the files'
+    /// contents) and the path classes. `None` in output
     /// directories written before it was recorded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inputs_hash: Option<String>,
@@ -81,9 +82,15 @@ impl ExperimentIdentity {
             "resolution:{:?}\nreference:{:?}\nclasses:{:?}",
             desc.resolution, desc.reference, desc.classes
         );
-        if let ReferenceDesc::Exr { path, variance, .. } = &desc.reference {
-            for p in std::iter::once(path).chain(variance) {
-                inputs += &format!("\nreference file:{:016x}", file_hash(&base.join(p))?);
+        match &desc.reference {
+            ReferenceDesc::Exr { path, variance, .. } => {
+                for p in std::iter::once(path).chain(variance) {
+                    inputs += &format!("\nreference file:{:016x}", file_hash(&base.join(p))?);
+                }
+            }
+            // A rendered reference changes with what its cache holds (its format's version).
+            ReferenceDesc::Render { .. } => {
+                inputs += &format!("\nreference format:{}", crate::reference::REFERENCE_FORMAT)
             }
         }
         for scene in &desc.scenes {
