@@ -19,6 +19,10 @@
 
 use serde::{Deserialize, Serialize};
 
+/// Version of the errors' definitions, part of an experiment's identity (`runner`): 2 since relMSE
+/// subtracts the first-order bias of dividing by the reference's noisy value.
+pub const FORMAT: u32 = 2;
+
 /// ε in relMSE = (x − r)² / (r² + ε), so that black pixels do not dominate (a common choice; the
 /// value is part of the metric's definition and printed with the results).
 pub const REL_EPSILON: f64 = 1e-2;

@@ -54,7 +54,7 @@ pub struct ExperimentIdentity {
     pub runs_hash: String,
     /// Every scene's contents (with the meshes and images it reads), the resolution, the
     /// reference (its settings and the version of what the reference cache holds, or the files'
-    /// contents) and the path classes. `None` in output
+    /// contents), the path classes and the version of the errors' definitions. `None` in output
     /// directories written before it was recorded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub inputs_hash: Option<String>,
@@ -79,8 +79,11 @@ impl ExperimentIdentity {
                 .map_err(|e| format!("{}: {e}", p.display()))
         };
         let mut inputs = format!(
-            "resolution:{:?}\nreference:{:?}\nclasses:{:?}",
-            desc.resolution, desc.reference, desc.classes
+            "resolution:{:?}\nreference:{:?}\nclasses:{:?}\nmetrics:{}",
+            desc.resolution,
+            desc.reference,
+            desc.classes,
+            crate::metrics::FORMAT
         );
         match &desc.reference {
             ReferenceDesc::Exr { path, variance, .. } => {
@@ -131,8 +134,8 @@ impl ExperimentIdentity {
         match &found.inputs_hash {
             Some(h) if Some(h) != self.inputs_hash.as_ref() => Err(format!(
                 "{} holds runs of experiment {:?} measured on other inputs: a scene's contents, \
-                 the resolution, the reference or the path classes have changed since (inputs \
-                 hash {h}, now {}); move them away, or use another --results",
+                 the resolution, the reference, the path classes or the errors' definitions have \
+                 changed since (inputs hash {h}, now {}); move them away, or use another --results",
                 dir.display(),
                 self.name,
                 self.inputs_hash.as_deref().unwrap_or("none")
