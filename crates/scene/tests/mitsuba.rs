@@ -397,6 +397,17 @@ fn sensors_map_fov_axes_lenses_and_mirrors() {
         "{:?}",
         i.notes
     );
+    // Clipping planes are read but not applied, which is noted where a file sets them.
+    let clipped = ok(
+        "clipped",
+        &SENSOR.replace("<film", r#"<float name="near_clip" value="0.5"/><film"#),
+    );
+    assert!(
+        clipped.notes.iter().any(|n| n.contains("does not clip")),
+        "{:?}",
+        clipped.notes
+    );
+    assert!(!ok("unclipped", SENSOR).notes.iter().any(|n| n.contains("clip")));
 }
 
 #[test]

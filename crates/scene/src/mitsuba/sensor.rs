@@ -29,6 +29,14 @@ pub(crate) fn sensor(el: &Element) -> Result<Sensor, SceneError> {
             "near_clip ({near}) and far_clip ({far}) must satisfy 0 < near < far"
         )));
     }
+    if o.float("near_clip")?.is_some() || o.float("far_clip")?.is_some() {
+        notes.push(format!(
+            "{}:{}: near_clip ({near}) and far_clip ({far}) are read but Lightlab does not clip: \
+             geometry nearer or farther than them is visible, where Mitsuba hides it",
+            el.at.file.display(),
+            el.at.line
+        ));
+    }
     let lens = match o.ty {
         "perspective" => {
             // The pinhole's focus distance only guides Mitsuba's viewer.
