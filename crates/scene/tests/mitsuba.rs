@@ -407,7 +407,12 @@ fn sensors_map_fov_axes_lenses_and_mirrors() {
         "{:?}",
         clipped.notes
     );
-    assert!(!ok("unclipped", SENSOR).notes.iter().any(|n| n.contains("clip")));
+    assert!(
+        !ok("unclipped", SENSOR)
+            .notes
+            .iter()
+            .any(|n| n.contains("clip"))
+    );
 }
 
 #[test]
@@ -857,6 +862,18 @@ fn emitters_become_lights() {
         (Rgb::splat(3.0), 40.0, Some(30.0))
     );
     assert_eq!(profile, lightlab_scene::SpotProfile::Angular);
+    // A beam wider than the cutoff is refused in Mitsuba's own names.
+    let (_, _, m) = err(
+        "wide-beam",
+        &format!(
+            r#"{SENSOR}<emitter type="spot"><float name="cutoff_angle" value="10"/>
+            <float name="beam_width" value="20"/></emitter>"#
+        ),
+    );
+    assert!(
+        m.contains("beam_width must be in (0, cutoff_angle = 10]") && !m.contains("falloff_start"),
+        "{m}"
+    );
     let LightRaw::EnvironmentMap {
         file,
         scale,

@@ -62,6 +62,17 @@ pub(crate) fn light(el: &Element, base: &std::path::Path) -> Result<LightDesc, S
             non_negative(&o, "intensity", intensity)?;
             let cutoff = o.float_or("cutoff_angle", 20.0)?;
             let beam = o.float_or("beam_width", cutoff * 0.75)?;
+            // Checked here in Mitsuba's names (the scene check would name Lightlab's).
+            if !(cutoff > 0.0 && cutoff <= 180.0) {
+                return Err(o.error(format!(
+                    "cutoff_angle must be in (0, 180] degrees, got {cutoff}"
+                )));
+            }
+            if !(beam > 0.0 && beam <= cutoff) {
+                return Err(o.error(format!(
+                    "beam_width must be in (0, cutoff_angle = {cutoff}] degrees, got {beam}"
+                )));
+            }
             LightRaw::Spot {
                 position,
                 target: position + axis,
