@@ -145,6 +145,16 @@ impl ExperimentIdentity {
     }
 }
 
+/// Whether output directory `dir` holds a finished run (an identity alone, written by a run that
+/// stopped before its first, binds nothing).
+fn holds_runs(dir: &Path) -> bool {
+    std::fs::read_dir(dir.join("runs")).is_ok_and(|entries| {
+        entries
+            .flatten()
+            .any(|e| e.path().join("metrics.json").is_file())
+    })
+}
+
 /// What a finished run records (`metrics.json`).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct RunRecord {
@@ -282,7 +292,9 @@ pub fn run_experiment(
         .clone()
         .unwrap_or_else(|| options.results.join("references"));
     let found = ExperimentIdentity::read(&out_dir);
-    if let Some(found) = &found {
+    if let Some(found) = &found
+        && holds_runs(&out_dir)
+    {
         identity.check(found, &out_dir)?;
     }
     // New, or from before the inputs were recorded: record them now.
@@ -511,7 +523,9 @@ pub fn merge(
     let desc = load_experiment(path).map_err(|e| e.to_string())?;
     let runs = expand(&desc, path).map_err(|e| e.to_string())?;
     let identity = ExperimentIdentity::of(&desc, path, &runs)?;
-    if let Some(found) = ExperimentIdentity::read(out_dir) {
+    if let Some(found) = ExperimentIdentity::read(out_dir)
+        && holds_runs(out_dir)
+    {
         identity.check(&found, out_dir)?;
     }
     let expected: std::collections::BTreeSet<&str> = runs.iter().map(|r| r.id.as_str()).collect();
