@@ -27,11 +27,22 @@ impl RoulettePolicy {
 /// unbiased; paths scoring τ or more always continue. τ = 1 is survival in proportion to
 /// throughput (pbrt-v4); a smaller τ ends fewer paths and gives the survivors smaller weights.
 ///
+/// Past [`DEEP`] scattering vertices survival is at most [`DEEP_SURVIVAL`] whatever the score (as
+/// Mitsuba 3 caps it at every depth), so a walk whose throughput does not fall — light trapped by
+/// total internal reflection in a lossless dielectric, a hall of perfect mirrors — still ends
+/// (after 20 more vertices on average) and the estimate stays unbiased. Such walks had run for
+/// minutes, past any time budget; walks that deep are otherwise so rare that images do not change.
+///
 /// The score is β relative to the walk's starting throughput — light paths start with the
 /// emitted flux, in units of power that scale with the scene, which no absolute threshold can
 /// judge — and, for radiance, with the η² of every refraction so far divided out (radiance is
 /// scaled by 1/η² on entering a denser medium; pbrt-v4 §13.4.4), so that paths inside glass are
 /// not ended for a scale factor they lose again on leaving.
+/// Scattering vertices after which survival is capped at [`DEEP_SURVIVAL`].
+pub(crate) const DEEP: u32 = 64;
+/// The largest survival probability past [`DEEP`] vertices.
+const DEEP_SURVIVAL: f32 = 0.95;
+
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Roulette {
     start: Option<u32>,
@@ -60,7 +71,8 @@ impl Roulette {
         }
         match self.start {
             Some(start) if depth >= start => {
-                let q = (beta.max_component() * self.inv_beta_threshold * self.eta_scale).min(1.0);
+                let cap = if depth >= DEEP { DEEP_SURVIVAL } else { 1.0 };
+                let q = (beta.max_component() * self.inv_beta_threshold * self.eta_scale).min(cap);
                 if !(u < q) {
                     return false;
                 }
@@ -177,5 +189,20 @@ mod tests {
             (beta.g - 1.0).abs() < 1e-6 && (beta.r - 0.25).abs() < 1e-6,
             "score τ: β/q = β/0.4, got {beta:?}"
         );
+    }
+
+    /// A lossless walk (score never below τ) survives every vertex before `DEEP`, and from there
+    /// on with probability 0.95, its weight divided by it: it ends, and stays unbiased.
+    #[test]
+    fn deep_walks_end_even_when_lossless() {
+        let s = reflection();
+        let mut r = Roulette::new(from(1), TransportMode::Importance, Rgb::WHITE);
+        let mut beta = Rgb::WHITE;
+        assert!(r.survives(DEEP - 1, &s, 0.999, &mut beta));
+        assert_eq!(beta, Rgb::WHITE);
+        assert!(!r.survives(DEEP, &s, 0.96, &mut beta));
+        let mut beta = Rgb::WHITE;
+        assert!(r.survives(DEEP, &s, 0.94, &mut beta));
+        assert!((beta.r - 1.0 / 0.95).abs() < 1e-6, "β/0.95, got {beta:?}");
     }
 }
