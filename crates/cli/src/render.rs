@@ -81,8 +81,9 @@ fn exr_path(output: &std::path::Path) -> Result<PathBuf, String> {
 }
 
 pub fn run(args: RenderArgs) -> Result<(), String> {
+    // `bounces`, or `Bounces` as the RON settings spell it (no path expression is a word).
     let layers = args.layers.as_deref().map(|l| match l.trim() {
-        "bounces" => Layers::Bounces,
+        b if b.eq_ignore_ascii_case("bounces") => Layers::Bounces,
         list => Layers::Classes(list.split(',').map(|e| e.trim().to_string()).collect()),
     });
     // The command line is checked before the scene is read (as for a RON scene, whose errors

@@ -40,7 +40,9 @@ pub struct Router {
 #[derive(Clone, Debug)]
 enum Split {
     None,
-    Bounces(u32),
+    /// This many layers, one per bounce count; with `catch_all` the last holds every count from
+    /// its own on (unbounded walks, or more bounces than there are layers).
+    Bounces { layers: u32, catch_all: bool },
     Classes(Vec<PathRegex>),
 }
 
@@ -58,9 +60,14 @@ impl Router {
             .map_err(|e| format!("paths: {e}"))?;
         let split = match layers {
             Layers::Off => Split::None,
-            Layers::Bounces => Split::Bounces(
-                max_bounces.map_or(UNBOUNDED_BOUNCE_LAYERS, |m| m.saturating_add(1).min(64)),
-            ),
+            Layers::Bounces => {
+                let layers =
+                    max_bounces.map_or(UNBOUNDED_BOUNCE_LAYERS, |m| m.saturating_add(1).min(64));
+                Split::Bounces {
+                    layers,
+                    catch_all: max_bounces.is_none_or(|m| m >= layers),
+                }
+            }
             Layers::Classes(exprs) => {
                 if exprs.is_empty() {
                     return Err("layers: Classes needs at least one expression".into());
@@ -95,7 +102,7 @@ impl Router {
     pub fn layer_count(&self) -> usize {
         match &self.split {
             Split::None => 0,
-            Split::Bounces(n) => *n as usize,
+            Split::Bounces { layers, .. } => *layers as usize,
             Split::Classes(r) => r.len() + 1,
         }
     }
@@ -104,9 +111,9 @@ impl Router {
     pub fn layer_names(&self) -> Vec<String> {
         match &self.split {
             Split::None => Vec::new(),
-            Split::Bounces(n) => (0..*n)
+            &Split::Bounces { layers, catch_all } => (0..layers)
                 .map(|k| {
-                    if *n == UNBOUNDED_BOUNCE_LAYERS && k == n - 1 {
+                    if catch_all && k == layers - 1 {
                         format!("bounces {k}+")
                     } else {
                         format!("bounces {k}")
@@ -132,7 +139,7 @@ impl Router {
         }
         Some(match &self.split {
             Split::None => 0,
-            Split::Bounces(n) => (class.len() as usize).min(*n as usize - 1),
+            Split::Bounces { layers, .. } => (class.len() as usize).min(*layers as usize - 1),
             Split::Classes(r) => r.iter().position(|e| e.matches(class)).unwrap_or(r.len()),
         })
     }
@@ -142,5 +149,28 @@ impl Router {
     #[inline]
     pub fn is_trivial(&self) -> bool {
         self.filter.is_none() && matches!(self.split, Split::None)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A bounce layer that holds every count from its own on says so with `+`: the last layer of
+    /// an unbounded walk, and of a walk with more bounces than the 64 layers; never a layer of
+    /// exactly one count.
+    #[test]
+    fn bounce_layer_names_mark_the_catch_all() {
+        let last = |max: Option<u32>| {
+            let names = Router::new(None, &Layers::Bounces, max)
+                .unwrap()
+                .layer_names();
+            (names.len(), names.last().unwrap().clone())
+        };
+        assert_eq!(last(None), (11, "bounces 10+".into()));
+        assert_eq!(last(Some(100)), (64, "bounces 63+".into()));
+        assert_eq!(last(Some(63)), (64, "bounces 63".into()));
+        assert_eq!(last(Some(10)), (11, "bounces 10".into()));
+        assert_eq!(last(Some(0)), (1, "bounces 0".into()));
     }
 }
