@@ -127,4 +127,24 @@ fn unresolvable_features_are_reported() {
         "{:?}",
         sc.warnings
     );
+    // No small shape, but a point light one unit above a floor two million wide: positions on
+    // the floor carry errors of its float steps, and the image was 25 % dark (3.6× too bright at
+    // 2·10⁸), silently. The light's height is a feature, as is the camera's.
+    let floor = |half: f64, light_height: f64, eye_height: f64| {
+        let width = 2.0 * half;
+        scene(&format!(
+            "Scene(camera: Camera(eye: (0, {eye_height:e}, 2.5), target: (0, 0, 0), fov: 40, resolution: (8, 8)),
+             materials: {{ \"white\": Diffuse(albedo: (0.5, 0.5, 0.5)) }},
+             shapes: [ Shape(geometry: Quad(corner: (-{half:e}, 0, -{half:e}), edge1: (0, 0, {width:e}), edge2: ({width:e}, 0, 0)), material: \"white\") ],
+             lights: [ Point(position: (0, {light_height:e}, 0), intensity: (1, 1, 1)) ])"
+        ))
+        .warnings
+    };
+    assert!(floor(20.0, 1.0, 1.0).is_empty());
+    for warnings in [floor(1e6, 1.0, 1.0), floor(20.0, 1.0, 1e-5)] {
+        assert!(
+            warnings.iter().any(|w| w.contains("smallest feature")),
+            "{warnings:?}"
+        );
+    }
 }

@@ -150,7 +150,18 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
     let camera = Camera::new(&desc.camera, origin);
     let mut shapes = Vec::with_capacity(desc.shapes.len());
     let mut lights = Vec::new();
-    let mut features = Features::default();
+    // The camera and the point and spot lights: how near they are to a surface is a feature too.
+    let mut features = Features {
+        points: std::iter::once(desc.camera.eye)
+            .chain(desc.lights.iter().filter_map(|l| match l.0 {
+                LightRaw::Point { position, .. } | LightRaw::Spot { position, .. } => {
+                    Some(position)
+                }
+                _ => None,
+            }))
+            .collect(),
+        ..Features::default()
+    };
     let mut motions = Vec::with_capacity(desc.shapes.len());
     let mut degenerate = Vec::new();
     for (i, ((material, g), s)) in world.into_iter().zip(&desc.shapes).enumerate() {
@@ -254,11 +265,15 @@ impl Bounds {
 }
 
 /// What f32 render space must resolve: the largest coordinate and the smallest feature (triangle
-/// edge or sphere radius).
+/// edge, sphere radius, or the distance from the camera or a point or spot light to the nearest
+/// surface: a light one unit above a plane a million wide is lit from positions that carry errors
+/// of the plane's float steps).
 #[derive(Default)]
 struct Features {
     largest: f64,
     smallest: f64,
+    /// The camera's and the positional lights' positions (world space).
+    points: Vec<DVec3>,
 }
 
 /// A feature spanning fewer float steps of the largest coordinate than this is reported.
@@ -277,11 +292,17 @@ impl Features {
                     self.largest = self.largest.max((*p - origin).abs().max_element());
                 }
                 for t in indices {
+                    let v = t.map(|i| positions[i as usize]);
                     for k in 0..3 {
-                        let e =
-                            positions[t[k] as usize].distance(positions[t[(k + 1) % 3] as usize]);
+                        let e = v[k].distance(v[(k + 1) % 3]);
                         if e > 0.0 {
                             self.smallest = self.smallest.min(e);
+                        }
+                    }
+                    for &p in &self.points {
+                        let d = p.distance(closest_on_triangle(p, v));
+                        if d > 0.0 {
+                            self.smallest = self.smallest.min(d);
                         }
                     }
                 }
@@ -290,6 +311,12 @@ impl Features {
                 let r = *radius as f64;
                 self.largest = self.largest.max((*center - origin).abs().max_element() + r);
                 self.smallest = self.smallest.min(r);
+                for &p in &self.points {
+                    let d = (p.distance(*center) - r).abs();
+                    if d > 0.0 {
+                        self.smallest = self.smallest.min(d);
+                    }
+                }
             }
         }
     }
@@ -300,9 +327,10 @@ impl Features {
         let step = self.largest * f32::EPSILON as f64;
         (self.smallest.is_finite() && step > 0.0 && self.smallest < MIN_STEPS * step).then(|| {
             format!(
-                "{}: the smallest feature ({:.3e}) is only {:.0} float steps of the scene's extent \
-                 ({:.3e} from its centre): f32 positions will quantise it visibly; scale or split \
-                 the scene so that its parts are within about 10⁴ of each other in size",
+                "{}: the smallest feature ({:.3e}: a shape's size, or the distance from the camera \
+                 or a point or spot light to a surface) is only {:.0} float steps of the scene's \
+                 extent ({:.3e} from its centre): f32 positions will quantise it visibly; scale or \
+                 split the scene so that its parts are within about 10⁴ of each other in size",
                 path.display(),
                 self.smallest,
                 self.smallest / step,
@@ -310,6 +338,40 @@ impl Features {
             )
         })
     }
+}
+
+/// The point of triangle `v` nearest to `p` (Ericson 2005, "Real-Time Collision Detection",
+/// §5.1.5: the Voronoi region of `p` among the vertices, edges and face).
+fn closest_on_triangle(p: DVec3, [a, b, c]: [DVec3; 3]) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
 }
 
 /// The BSDF of `m` with its constant colours; a textured colour is black here (the texture

@@ -42,7 +42,10 @@ enum Split {
     None,
     /// This many layers, one per bounce count; with `catch_all` the last holds every count from
     /// its own on (unbounded walks, or more bounces than there are layers).
-    Bounces { layers: u32, catch_all: bool },
+    Bounces {
+        layers: u32,
+        catch_all: bool,
+    },
     Classes(Vec<PathRegex>),
 }
 
