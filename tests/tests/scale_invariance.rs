@@ -141,6 +141,17 @@ fn unresolvable_features_are_reported() {
         .warnings
     };
     assert!(floor(20.0, 1.0, 1.0).is_empty());
+    // Beyond 10⁹ from the centre f32 areas overflow (a floor 6·10⁹ wide had an infinite area and
+    // Radiosity allocated gigabytes of patches for it): refused.
+    let text = "Scene(camera: Camera(eye: (0, 1, 2.5), target: (0, 0, 0), fov: 40, resolution: (8, 8)),
+        materials: { \"white\": Diffuse(albedo: (0.5, 0.5, 0.5)) },
+        shapes: [ Shape(geometry: Quad(corner: (-3e9, 0, -3e9), edge1: (0, 0, 6e9), edge2: (6e9, 0, 0)), material: \"white\") ],
+        lights: [ Point(position: (0, 1, 0), intensity: (1, 1, 1)) ])";
+    let e = lightlab_scene::parse_scene(text, std::path::Path::new("huge.ron"))
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("huge.ron:3:") && e.contains("overflow"), "{e}");
     for warnings in [floor(1e6, 1.0, 1.0), floor(20.0, 1.0, 1e-5)] {
         assert!(
             warnings.iter().any(|w| w.contains("smallest feature")),

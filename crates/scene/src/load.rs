@@ -210,6 +210,19 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         shapes.push(shape);
         motions.push(s.motion.as_ref().map(|m| motion(m, origin)));
     }
+    if features.largest > MAX_EXTENT {
+        return Err(SceneError::at(
+            path,
+            text,
+            "shapes",
+            format!(
+                "the shapes reach {:.3e} from the scene's centre; render space is f32, whose \
+                 triangle areas and squared distances overflow beyond about {MAX_EXTENT:e} (areas \
+                 came out infinite or NaN): scale the scene down",
+                features.largest
+            ),
+        ));
+    }
     let env = environment_map(&desc.lights, base)
         .map_err(|(needle, msg)| SceneError::at(path, text, &needle, msg))?;
     for l in &desc.lights {
@@ -275,6 +288,10 @@ struct Features {
     /// The camera's and the positional lights' positions (world space).
     points: Vec<DVec3>,
 }
+
+/// The farthest a shape may reach from the scene's centre (render space): a triangle twice as wide
+/// has a cross product whose squared length overflows f32.
+const MAX_EXTENT: f64 = 1e9;
 
 /// A feature spanning fewer float steps of the largest coordinate than this is reported.
 const MIN_STEPS: f64 = 1024.0;
