@@ -162,6 +162,18 @@ fn bad_input_is_an_error_not_a_panic() {
             ],
             "leaves 0 sample count",
         ),
+        (
+            // s = 0 keeps camera paths that hit a light: black under point lights alone.
+            vec![
+                "render".into(),
+                repo().join("scenes/point-over-plane.ron").display().to_string(),
+                "--integrator".into(),
+                "Bdpt(mis: Only(s: 0, t: 3))".into(),
+                "-o".into(),
+                dir.join("black.exr").display().to_string(),
+            ],
+            "choose a strategy with s ≥ 1",
+        ),
     ];
     // Refused before allocating: 16384² pixels × 1024 light subpaths each is tens of terabytes
     // of light vertices (the kernel's out-of-memory kill ended it otherwise).

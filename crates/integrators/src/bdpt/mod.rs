@@ -227,6 +227,19 @@ impl Integrator for Bdpt {
     fn memory_bytes(&self, scene: &Scene) -> u64 {
         self.pass_spec(scene).bytes()
     }
+
+    /// `Only(s: 0, …)` keeps the camera subpaths that hit a light, which no point, spot or
+    /// directional light can be: with only such lights the image would be black.
+    fn check_scene(&self, scene: &Scene) -> Result<(), String> {
+        match self.config.mis {
+            Mis::Only { s: 0, t } if scene.lights.iter().all(|l| l.is_delta()) => Err(format!(
+                "mis: Only(s: 0, t: {t}) keeps only camera paths that hit a light, and the scene's \
+                 lights are all point, spot or directional lights, which no ray hits: choose a \
+                 strategy with s ≥ 1"
+            )),
+            _ => Ok(()),
+        }
+    }
 }
 
 impl Bdpt {
