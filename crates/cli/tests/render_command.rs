@@ -166,7 +166,10 @@ fn bad_input_is_an_error_not_a_panic() {
             // s = 0 keeps camera paths that hit a light: black under point lights alone.
             vec![
                 "render".into(),
-                repo().join("scenes/point-over-plane.ron").display().to_string(),
+                repo()
+                    .join("scenes/point-over-plane.ron")
+                    .display()
+                    .to_string(),
                 "--integrator".into(),
                 "Bdpt(mis: Only(s: 0, t: 3))".into(),
                 "-o".into(),

@@ -10,8 +10,11 @@
 //! | `direct`    | `L x`          | next-event estimation                                 |
 //! | `caustics`  | `L S+ x`       | caustic map at x                                      |
 //! | `indirect`  | `L … y S* x`   | global map at x (photons not `L x`, not `L S+ x`), or |
-//! |             | (y not `S`)    | final gather: BSDF rays from x through specular       |
-//! |             |                | surfaces to y, global map (all photons) at y          |
+//! |             | (y not `S`)    | final gather: BSDF rays from x through specular (and, |
+//! |             |                | with `trace_glossy`, glossy) surfaces to the first    |
+//! |             |                | diffuse y, global map (all photons) at y; at glossy   |
+//! |             |                | vertices on the way next-event estimation, and        |
+//! |             |                | emission after them, by the power heuristic           |
 //!
 //! plus emission seen through the camera's specular chain. The estimate is biased: density
 //! estimation blurs over the gather radius, and with a fixed photon count that blur never goes
@@ -40,16 +43,18 @@ use super::camera::{self, CameraWalk, VisiblePoint};
 use super::config::{Indirect, PhotonMapConfig};
 use super::map::{PhotonMap, Search};
 use super::trace::{GROUPS, Keep, PhotonTracing, stored_per_path, trace_photons, tracing_bytes};
+use crate::nee::{Competition, emission_found, environment_found, sample_direct};
 use crate::passes::{PassSpec, Schedule, run_passes, run_progressive_passes};
 use crate::paths::{PathClass, Router};
 use crate::render::{Counters, PixelVariance, Technique, named};
 use crate::shutter::pass_time;
 use crate::sink::Sink;
 use crate::walk::{
-    Arrival, Directions, Lobes, PathVertex, RoulettePolicy, Visitor, Walk, continue_walk,
+    Arrival, DEEP, Directions, Lobes, PathVertex, RoulettePolicy, Visitor, Walk, continue_walk,
 };
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
-use lightlab_core::{Progress, Rgb, TransportMode};
+use lightlab_core::{Progress, Ray, Rgb, TransportMode};
+use lightlab_materials::LobeClass;
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
 use std::sync::RwLock;
@@ -142,32 +147,45 @@ impl PhotonMapper {
     ) {
         let c = &self.config;
         let max = c.max_bounces.unwrap_or(u32::MAX);
-        // Specular chains from x to y are short and end at y: no roulette.
+        // Chains from x to y are short and end at y: no roulette until a walk is `DEEP` (glossy
+        // surfaces facing each other with no diffuse one in sight), where it must end.
         let walk = Walk {
             mode: TransportMode::Radiance,
             max_depth: max,
-            roulette: RoulettePolicy::OFF,
+            roulette: RoulettePolicy {
+                start: Some(DEEP),
+                threshold: 1.0,
+            },
             directions: Directions::Bsdf,
         };
         let mut from = vp.vertex;
         from.beta = vp.beta / rays as f32;
         let mut gather = Gather {
             pm: self,
+            scene,
             map,
             search,
             l,
             origin_depth: vp.vertex.depth,
             delta_only: false,
+            glossy: false,
         };
         for _ in 0..rays {
+            gather.glossy = false;
             continue_walk(scene, &walk, &from, sampler, &mut gather, counters);
         }
     }
 }
 
-/// The final gather's visitor: the global map's estimate at the first non-delta vertex y.
+/// The final gather's visitor: the global map's estimate at the first vertex y that is neither
+/// delta nor, with `trace_glossy`, glossy. Glossy vertices on the way are path traced as on the
+/// camera side (`camera`): next-event estimation there, and emission found after one, combined
+/// by the power heuristic. No map holds those paths — the caustic map keeps `L S+ x` only — and a
+/// density estimate on a near-specular glossy surface cannot resolve its BSDF: gathering there
+/// lost the caustics seen through glass of roughness 10⁻⁴.
 struct Gather<'a, 'r> {
     pm: &'a PhotonMapper,
+    scene: &'a Scene,
     map: &'a PhotonMap,
     search: Search,
     l: &'a mut Sink<'r>,
@@ -175,6 +193,19 @@ struct Gather<'a, 'r> {
     origin_depth: u32,
     /// The ray chose a delta lobe at the vertex last visited (see `VisiblePoint::at_or_delta`).
     delta_only: bool,
+    /// The ray passed a glossy vertex since the visible point.
+    glossy: bool,
+}
+
+impl Gather<'_, '_> {
+    /// How emission found after a glossy vertex competes with next-event estimation there.
+    fn competition(&self) -> Competition {
+        if self.pm.config.direct {
+            Competition::Power
+        } else {
+            Competition::None
+        }
+    }
 }
 
 impl Visitor for Gather<'_, '_> {
@@ -186,10 +217,37 @@ impl Visitor for Gather<'_, '_> {
         sampler: &mut S,
         counters: &mut Counters,
     ) -> bool {
+        let (c, scene) = (&self.pm.config, self.scene);
+        if self.glossy && arrival.class.len() >= c.min_bounces {
+            let e = emission_found(scene, v, arrival, self.competition());
+            if !e.is_black() {
+                self.l
+                    .add_eye_or_count(&arrival.class, e, Technique::Camera, counters);
+            }
+        }
         if v.delta {
             return true;
         }
-        let c = &self.pm.config;
+        if c.trace_glossy
+            && let Some(sb) = &v.sb
+            && sb.bsdf.lobe_class() == LobeClass::Glossy
+        {
+            let (u_light, u_point) = (sampler.next_1d(), sampler.next_2d());
+            if c.direct
+                && v.depth >= c.min_bounces
+                && let Some(d) = sample_direct(scene, v, sb, v.wo, u_light, u_point, true, counters)
+            {
+                let w = self.competition().direct_weight(&d);
+                self.l.add_eye_or_count(
+                    &v.class,
+                    v.beta * d.value * w,
+                    Technique::Camera,
+                    counters,
+                );
+            }
+            self.glossy = true;
+            return true;
+        }
         let Some(y) = VisiblePoint::at_or_delta(v, arrival, sampler) else {
             self.delta_only = true;
             return true;
@@ -203,6 +261,18 @@ impl Visitor for Gather<'_, '_> {
                 }
             });
         false
+    }
+
+    #[inline]
+    fn escaped(&mut self, ray: &Ray, beta: Rgb, arrival: &Arrival, counters: &mut Counters) {
+        if self.glossy && arrival.class.len() >= self.pm.config.min_bounces {
+            let d = ray.d.normalize();
+            let e = environment_found(self.scene, beta, d, arrival, self.competition());
+            if !e.is_black() {
+                self.l
+                    .add_eye_or_count(&arrival.class, e, Technique::Camera, counters);
+            }
+        }
     }
 
     #[inline]
@@ -228,8 +298,6 @@ fn deposit(l: &mut Sink, group: usize, class: &PathClass, c: Rgb, counters: &mut
 }
 
 impl PhotonMapper {
-    /// The global and caustic maps (those asked for) of photons traced at instant `time` from the
-    /// streams of `seed`.
     /// How the global (`Keep::All`) or caustic (`Keep::Caustic`) map's photons are traced.
     fn tracing(&self, keep: Keep) -> PhotonTracing {
         PhotonTracing {
@@ -238,6 +306,9 @@ impl PhotonMapper {
             keep,
         }
     }
+
+    /// The global and caustic maps (those asked for) of photons traced at instant `time` from the
+    /// streams of `seed`.
 
     fn maps(&self, scene: &Scene, seed: u64, time: f32, counters: &mut Counters) -> Maps {
         let c = &self.config;

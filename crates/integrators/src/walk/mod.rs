@@ -33,6 +33,7 @@ use lightlab_geometry::spawn_ray;
 use lightlab_materials::{BsdfSample, LobeClass, SurfaceBsdf};
 use lightlab_samplers::Sampler;
 use lightlab_scene::Scene;
+pub(crate) use roulette::DEEP;
 use roulette::Roulette;
 pub use roulette::RoulettePolicy;
 
