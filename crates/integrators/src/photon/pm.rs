@@ -309,7 +309,6 @@ impl PhotonMapper {
 
     /// The global and caustic maps (those asked for) of photons traced at instant `time` from the
     /// streams of `seed`.
-
     fn maps(&self, scene: &Scene, seed: u64, time: f32, counters: &mut Counters) -> Maps {
         let c = &self.config;
         let global = (c.indirect != Indirect::Off).then(|| {
