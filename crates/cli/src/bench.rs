@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 /// the whole render's CPU time), rays per second, relMSE, relMSE × spp (for an unbiased estimator
 /// the relative variance of one sample, constant in spp and so comparable across integrators run
 /// at different spp; for a biased one it also holds spp × bias², which grows with spp) and
-/// efficiency 1 / (relMSE × CPU seconds), both means over the trials.
+/// efficiency 1 / (mean relMSE × mean CPU seconds), a ratio of means over the trials.
 /// CPU time is the process's user + system time over all threads (/proc/self/stat), so rates per
 /// CPU-second compare thread counts fairly. Figures are ratios within one run: compare rows,
 /// not runs on different days (BENCHMARKS.md).
@@ -81,6 +81,9 @@ struct Row {
     rel_mse_per_trial: Vec<f64>,
     /// `None` when the render took less CPU time than the clock resolves (10 ms).
     paths_per_cpu_second: Option<f64>,
+    /// The mean CPU time is under `PRECISE_TICKS` ticks of the 10 ms clock: the CPU rates and the
+    /// efficiency carry more than 2 % rounding (marked `~` in the table).
+    cpu_rates_rounded: bool,
     /// Photon paths traced in one trial (0 for integrators without photons).
     photon_paths: u64,
     /// `None` without photons or when the CPU time is below the clock's resolution.
@@ -98,6 +101,11 @@ struct Row {
     logical_cpus: usize,
     build_simd: &'static str,
 }
+
+/// Seconds per tick of the CPU-time clock (/proc/self/stat counts in 10 ms ticks).
+const CLOCK_TICK: f64 = 0.01;
+/// Ticks of CPU time below which a row's CPU rates are marked as rounded (50: 2 %).
+const PRECISE_TICKS: f64 = 50.0;
 
 /// `INTEGRATOR@SPP`, checked: the integrator as written, its settings and its spp.
 fn parse_spec(s: &str) -> Result<(String, IntegratorConfig, u32), String> {
@@ -242,6 +250,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     cpu_seconds_per_trial: cpus,
                     rel_mse_per_trial: rel_mses,
                     paths_per_cpu_second: (cpu > 0.0).then(|| paths as f64 / cpu),
+                    cpu_rates_rounded: cpu < PRECISE_TICKS * CLOCK_TICK,
                     photon_paths: photons,
                     photon_paths_per_cpu_second: (cpu > 0.0 && photons > 0)
                         .then(|| photons as f64 / cpu),
@@ -257,7 +266,10 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
                     logical_cpus,
                     build_simd: build_simd(),
                 };
-                let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| x.map_or("—".into(), f);
+                let mark = if row.cpu_rates_rounded { "~" } else { "" };
+                let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| {
+                    x.map_or("—".into(), |x| format!("{mark}{}", f(x)))
+                };
                 println!(
                     "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {:.2} | {:.2} | {} | {:.3e} | {} |",
                     row.scene,
@@ -284,9 +296,16 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
             }
         }
     }
+    if rows.iter().any(|r| r.cpu_rates_rounded) {
+        println!(
+            "\n~: the row's mean CPU time is under {PRECISE_TICKS} ticks of the {} ms CPU clock, so \
+             its CPU rates and efficiency carry more than 2 % rounding (rows differing by one tick \
+             can look 30 % apart): raise its spp before comparing them",
+            CLOCK_TICK * 1e3
+        );
+    }
     println!(
-        "\nEach row: the mean of {} timed renders with seeds {}…{} (± one standard error of the mean \
-         relMSE over them); rates are total paths or rays over total CPU or wall seconds. relMSE = \
+        "\nEach row: the mean of {} timed renders with seeds {}…{}{}; rates are total paths or rays over total CPU or wall seconds. relMSE = \
          mean of ((x − r)² − v_r) / (r² + {REL_EPSILON}) over pixels and channels, r the reference \
          ({} at {} spp, {}×{}) and v_r its variance of the mean (less the first-order bias of dividing by \
          the noisy r: lightlab_experiments::metrics); efficiency — where a render took less CPU \
@@ -295,6 +314,11 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         args.trials,
         args.seed,
         args.seed.wrapping_add(args.trials as u64 - 1),
+        if args.trials > 1 {
+            " (± one standard error of the mean relMSE over them)"
+        } else {
+            ""
+        },
         args.reference,
         args.reference_spp,
         args.resolution.0,

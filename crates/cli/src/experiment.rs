@@ -128,16 +128,25 @@ pub fn run(args: RunArgs) -> Result<(), String> {
 /// Redraw an experiment's SVG plots from its runs.csv, without rendering anything.
 #[derive(Args)]
 pub struct PlotArgs {
-    /// The experiment's results directory (RESULTS/<name>/, holding runs.csv).
+    /// The experiment's results directory (RESULTS/<name>/, holding runs.csv), or its runs.csv.
     dir: PathBuf,
 }
 
 pub fn plot(args: PlotArgs) -> Result<(), String> {
-    let files = plot_from_csv(&args.dir).map_err(|e| e.to_string())?;
+    // A path to the table itself means the directory holding it.
+    let dir = match args.dir.file_name() {
+        Some(name) if args.dir.is_file() && name == "runs.csv" => args
+            .dir
+            .parent()
+            .unwrap_or(std::path::Path::new("."))
+            .to_path_buf(),
+        _ => args.dir.clone(),
+    };
+    let files = plot_from_csv(&dir).map_err(|e| e.to_string())?;
     println!(
         "wrote {} plots in {}: {}",
         files.len(),
-        args.dir.display(),
+        dir.display(),
         files.join(", ")
     );
     Ok(())

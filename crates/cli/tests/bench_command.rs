@@ -59,6 +59,10 @@ fn bench_measures_every_integrator_and_thread_count() {
         6,
         "{table}"
     );
+    assert!(
+        table.contains("~: the row's mean CPU time is under 50 ticks"),
+        "{table}"
+    );
     let rows: Vec<serde_json::Value> =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(rows.len(), 6);
@@ -111,6 +115,13 @@ fn bench_measures_every_integrator_and_thread_count() {
         // Null only when the render was shorter than the CPU clock's 10 ms tick.
         let rate = &one["paths_per_cpu_second"];
         assert!(rate.is_null() || rate.as_f64().unwrap() > 0.0, "{rate}");
+        // Under 50 ticks of the clock (these 16² renders are) the CPU rates are marked rounded.
+        let cpu = one["cpu_seconds"].as_f64().unwrap();
+        assert_eq!(
+            one["cpu_rates_rounded"].as_bool().unwrap(),
+            cpu < 0.5,
+            "{cpu}"
+        );
         // Photon paths: 20 000 per pass for Sppm, none (and no rate) for the others.
         let photons = one["photon_paths"].as_u64().unwrap();
         let photon_rate = &one["photon_paths_per_cpu_second"];
