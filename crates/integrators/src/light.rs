@@ -180,12 +180,8 @@ impl LightTracer {
     /// The images the driver keeps: the full image and the router's layers, splatted into.
     fn pass_spec(&self, scene: &Scene) -> PassSpec {
         PassSpec {
-            width: scene.camera.width,
-            height: scene.camera.height,
-            slots: 1 + self.router.layer_count(),
             splats: true,
-            groups: 0,
-            independent: true,
+            ..PassSpec::layers(scene, &self.router)
         }
     }
 }

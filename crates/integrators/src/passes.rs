@@ -222,6 +222,19 @@ pub(crate) struct PassSpec {
 }
 
 impl PassSpec {
+    /// The full image and `router`'s layers over `scene`'s camera: no splats, no photon groups,
+    /// independent sample indices. Estimators change what differs with `..`.
+    pub fn layers(scene: &Scene, router: &Router) -> PassSpec {
+        PassSpec {
+            width: scene.camera.width,
+            height: scene.camera.height,
+            slots: 1 + router.layer_count(),
+            splats: false,
+            groups: 0,
+            independent: true,
+        }
+    }
+
     /// Bytes the driver holds at once for these images: a film per slot (each pixel's
     /// statistics, with its photon-group sums), and either the tiles' copies of them being merged
     /// back (`pixel_pass`) or the pass's pixel buffer and one sample index's values (`splat_pass`).

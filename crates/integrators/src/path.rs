@@ -87,12 +87,8 @@ impl PathTracer {
     /// The images the driver keeps: the full image and the router's layers.
     fn pass_spec(&self, scene: &Scene) -> PassSpec {
         PassSpec {
-            width: scene.camera.width,
-            height: scene.camera.height,
-            slots: 1 + self.router.layer_count(),
-            splats: false,
-            groups: 0,
             independent: self.config.sampler.independent(),
+            ..PassSpec::layers(scene, &self.router)
         }
     }
 

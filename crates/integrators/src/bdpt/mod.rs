@@ -246,13 +246,12 @@ impl Bdpt {
     /// The images the driver keeps, splatted into: per pixel the full image, the class or bounce
     /// layers, then two per strategy.
     fn pass_spec(&self, scene: &Scene) -> PassSpec {
+        let image = PassSpec::layers(scene, &self.router);
         PassSpec {
-            width: scene.camera.width,
-            height: scene.camera.height,
-            slots: 1 + self.router.layer_count() + 2 * self.strategies.len(),
+            slots: image.slots + 2 * self.strategies.len(),
             splats: true,
-            groups: 0,
             independent: self.config.sampler.independent(),
+            ..image
         }
     }
 }

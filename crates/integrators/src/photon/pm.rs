@@ -432,12 +432,8 @@ impl PhotonMapper {
     /// groups' sums when one set of maps serves the whole render (no motion blur).
     fn pass_spec(&self, scene: &Scene) -> PassSpec {
         PassSpec {
-            width: scene.camera.width,
-            height: scene.camera.height,
-            slots: 1 + self.router.layer_count(),
-            splats: false,
             groups: if scene.motion_blur() { 0 } else { GROUPS },
-            independent: true,
+            ..PassSpec::layers(scene, &self.router)
         }
     }
 }

@@ -402,12 +402,8 @@ impl Radiosity {
     /// patch and slot).
     fn pass_spec(&self, scene: &Scene) -> PassSpec {
         PassSpec {
-            width: scene.camera.width,
-            height: scene.camera.height,
-            slots: 1 + self.router.layer_count(),
-            splats: false,
-            groups: 0,
             independent: self.config.sampler.independent(),
+            ..PassSpec::layers(scene, &self.router)
         }
     }
 

@@ -490,13 +490,12 @@ impl Vcm {
     /// two per technique layer; splatted into when light subpaths connect to the camera.
     fn pass_spec(&self, scene: &Scene) -> PassSpec {
         let cfg = &self.config;
+        let image = PassSpec::layers(scene, &self.router);
         PassSpec {
-            width: scene.camera.width,
-            height: scene.camera.height,
-            slots: 1 + self.router.layer_count() + 2 * self.layers.len(),
+            slots: image.slots + 2 * self.layers.len(),
             splats: Vcm::techniques_of(cfg.variant).0,
-            groups: 0,
             independent: cfg.variant == Variant::Vc && cfg.sampler.independent(),
+            ..image
         }
     }
 
