@@ -148,10 +148,11 @@ impl PhotonMapper {
         let c = &self.config;
         let max = c.max_bounces.unwrap_or(u32::MAX);
         // Chains from x to y are short and end at y: no roulette until a walk is `DEEP` (glossy
-        // surfaces facing each other with no diffuse one in sight), where it must end.
+        // surfaces facing each other with no diffuse one in sight), where it must end. As on the
+        // camera side, emission is found at the vertex after the last one a path may scatter at.
         let walk = Walk {
             mode: TransportMode::Radiance,
-            max_depth: max,
+            max_depth: max.saturating_add(1),
             roulette: RoulettePolicy {
                 start: Some(DEEP),
                 threshold: 1.0,
@@ -224,6 +225,9 @@ impl Visitor for Gather<'_, '_> {
                 self.l
                     .add_eye_or_count(&arrival.class, e, Technique::Camera, counters);
             }
+        }
+        if v.depth > c.max_bounces.unwrap_or(u32::MAX) {
+            return false;
         }
         if v.delta {
             return true;
