@@ -2,11 +2,11 @@
 //! standard error is not a terminal (a cluster job's log) a line every few seconds with what is
 //! done, the time elapsed and an estimate of the time remaining.
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lightlab_core::Progress;
 use std::io::IsTerminal;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// Seconds between progress lines when not on a terminal; `LIGHTLAB_PROGRESS_SECONDS` overrides it.
@@ -25,6 +25,9 @@ struct Lines {
     interval: Duration,
     total: AtomicU64,
     done: AtomicU64,
+    /// Whether the work began: a report of work that never began (a cached reference) writes
+    /// nothing.
+    started: AtomicBool,
     /// When the job started and when the last line was written.
     times: Mutex<(Instant, Instant)>,
 }
@@ -39,10 +42,12 @@ pub enum Unit {
 }
 
 impl Bar {
-    /// A progress report named `message`, counting in `unit`.
+    /// A progress report named `message`, counting in `unit`. On a terminal the bar appears when
+    /// the work starts (or when a `MultiProgress` it is added to draws it), so work that turns out
+    /// to be done already (a cached reference) shows no empty bar.
     pub fn new(message: &str, unit: Unit) -> Bar {
         if std::io::stderr().is_terminal() {
-            let bar = ProgressBar::new(0);
+            let bar = ProgressBar::with_draw_target(Some(0), ProgressDrawTarget::hidden());
             bar.set_style(
                 ProgressStyle::with_template(
                     "{msg} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
@@ -67,6 +72,7 @@ impl Bar {
                 interval: Duration::from_secs_f64(interval),
                 total: AtomicU64::new(0),
                 done: AtomicU64::new(0),
+                started: AtomicBool::new(false),
                 times: Mutex::new((now, now)),
             }),
         }
@@ -75,7 +81,9 @@ impl Bar {
     /// Ends the report: clears the bar, or writes the last line.
     pub fn finish(&self) {
         self.bar.finish_and_clear();
-        if let Some(l) = &self.lines {
+        if let Some(l) = &self.lines
+            && l.started.load(Ordering::Relaxed)
+        {
             l.write(true);
         }
     }
@@ -127,11 +135,15 @@ fn clock(seconds: f64) -> String {
 
 impl Progress for Bar {
     fn start(&self, total: u64) {
+        if self.lines.is_none() && self.bar.is_hidden() {
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+        }
         self.bar.set_length(total);
         self.bar.set_position(0);
         if let Some(l) = &self.lines {
             l.total.store(total, Ordering::Relaxed);
             l.done.store(0, Ordering::Relaxed);
+            l.started.store(true, Ordering::Relaxed);
         }
     }
     fn advance(&self, n: u64) {
