@@ -25,6 +25,11 @@ fn extreme_bsdfs() -> Vec<Bsdf> {
         },
     ];
     v.extend(etas.iter().map(|&eta| Bsdf::Dielectric { eta }));
+    v.extend(etas.iter().map(|&eta| Bsdf::ThinDielectric { eta }));
+    v.push(Bsdf::Conductor {
+        eta: Rgb::new(0.01, 1.0, 20.0),
+        k: Rgb::new(20.0, 0.0, 0.01),
+    });
     for alpha in alphas {
         v.push(rough_conductor(alpha));
         for distribution in DISTRIBUTIONS {
