@@ -2,9 +2,9 @@
 //! pdf, with the testkit harness (after Mitsuba 3's `chi2.py`): 10⁶ samples per test, cells
 //! expected below 5 pooled, immediate failure for a sample where the pdf is zero.
 //!
-//! False failures: each test runs at the default α = sidak(0.01, 250) = 4.02 × 10⁻⁵, so a
+//! False failures: each test runs at the default α = sidak(0.01, 300) = 3.35 × 10⁻⁵, so a
 //! correct warp fails with that probability over the choice of seed, and the 10 chi-square tests
-//! of this file together with probability 1 − (1 − α)¹⁰ ≈ 0.04 %. The seeds are fixed, so a
+//! of this file together with probability 1 − (1 − α)¹⁰ ≈ 0.03 %. The seeds are fixed, so a
 //! passing run keeps passing until a warp's code changes.
 
 use lightlab_samplers::warp::*;

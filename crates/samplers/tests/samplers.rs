@@ -7,8 +7,8 @@
 //!
 //! False failures: the exact tests (range, determinism, strata, nets) have none. The correlation
 //! test's 1625 bounds at 6σ together fail with probability < 10⁻⁵. The 15
-//! chi-square tests run at α = sidak(0.01, 250) = 4.02 × 10⁻⁵ each, together 1 − (1 − α)¹⁵ ≈
-//! 0.06 % over the choice of seeds for independent values; stratified values only lower Pearson's
+//! chi-square tests run at α = sidak(0.01, 300) = 3.35 × 10⁻⁵ each, together 1 − (1 − α)¹⁵ ≈
+//! 0.05 % over the choice of seeds for independent values; stratified values only lower Pearson's
 //! statistic (a count per cell closer to its expectation), so the rate is lower still. The
 //! convergence test compares MSEs over 256 pixels, each known to about ±9 % (1σ), so a ratio to
 //! ±13 %; it asks for 10× where ≥ 78× is measured, 2× where ≈ 4.6× is, 1.5× where ≥ 3.1× is: the

@@ -21,9 +21,9 @@
 //! 5. accepts when p > α.
 //!
 //! **False failures.** Under the null hypothesis p is uniform on [0, 1], so a correct routine fails
-//! with probability α. The default α is Šidák's correction of a suite-wide 1 % over 100 tests,
-//! α = 1 − 0.99^(1/250) = 4.02 × 10⁻⁵ per test ([`crate::stats::default_alpha`]): a project
-//! running at most 250 such tests sees a spurious failure in at most 1 % of runs with fresh seeds.
+//! with probability α. The default α is Šidák's correction of a suite-wide 1 % over 300 tests,
+//! α = 1 − 0.99^(1/300) = 3.35 × 10⁻⁵ per test ([`crate::stats::default_alpha`]): a project
+//! running at most 300 such tests sees a spurious failure in at most 1 % of runs with fresh seeds.
 //! With the fixed seeds a passing test keeps passing until the code under test changes; a change
 //! that makes a correct routine consume different random numbers re-draws its one-in-10⁴ chance.
 //!

@@ -22,8 +22,8 @@
 //! ```
 //!
 //! Every statistical test fails by chance with its significance level α. The defaults split a
-//! suite-wide false-failure rate of 1 % over 250 tests with Šidák's correction (see [`chi2`] and
-//! [`sidak`]), so a suite of at most 250 such tests fails spuriously at most once in a hundred
+//! suite-wide false-failure rate of 1 % over 300 tests with Šidák's correction (see [`chi2`] and
+//! [`sidak`]), so a suite of at most 300 such tests fails spuriously at most once in a hundred
 //! runs; the fixed seeds make any given run reproducible.
 
 pub mod chi2;
