@@ -12,7 +12,8 @@
 //! photons and visible points share one instant per pass); Jensen's photon map (maps per pass)
 //! against the average of its renders of frozen instants.
 //!
-//! False-failure rate ≤ 1e-3 for the file: per-pixel z-tests Šidák-corrected over pixels,
+//! False-failure rate ≤ 1e-3 for each of the three z-tested functions (≤ 3·10⁻³ for the file):
+//! per-pixel and per-region z-tests Šidák-corrected over pixels,
 //! channels and comparisons; fixed seeds. The Sobol comparison is a ratio of rms errors with a
 //! margin: measured 2.5×, required 2× (with the time drawn outside the sampler, 1.1×).
 
