@@ -127,7 +127,12 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../../scenes/caustic-sphere.ron");
         let scene = lightlab_scene::load_scene(&path).unwrap();
-        for keep in [Keep::All, Keep::Caustic] {
+        for keep in [
+            Keep::All,
+            Keep::Caustic {
+                through_glossy: true,
+            },
+        ] {
             let how = PhotonTracing {
                 max_bounces: u32::MAX,
                 roulette: crate::RoulettePolicy {

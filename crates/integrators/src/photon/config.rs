@@ -169,7 +169,8 @@ settings! {
         /// Default `FinalGather(rays: 16)`.
         indirect: Indirect = Indirect::FinalGather { rays: 16 },
         /// Trace camera paths through glossy surfaces (path tracing there) instead of gathering
-        /// photons on them. Default true.
+        /// photons on them; final-gather rays pass them too, and the caustic map keeps the photons
+        /// that reach a diffuse surface through glossy ones, `L (S|G)+ X`. Default true.
         trace_glossy: bool = true,
     }
 }

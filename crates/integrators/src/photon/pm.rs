@@ -1,20 +1,19 @@
 //! Jensen's two-pass photon mapping (Jensen 1996; Jensen 2001, ch. 9).
 //!
 //! Pass 1 traces `photons` photon paths into the global map and `caustic_photons` more, keeping
-//! only their caustic photons (`L S+ X`), into the caustic map. Pass 2 traces camera paths to
-//! their visible point x (`camera`) and splits the light arriving there by the vertex before x,
-//! a partition of all paths through x:
+//! only their caustic photons, into the caustic map. Pass 2 traces camera paths to their visible
+//! point x (`camera`) and splits the light arriving there by the vertices between the light and
+//! x, a partition of all paths through x. With T the lobes the camera walk passes — specular
+//! ones, and glossy ones with `trace_glossy` (Jensen's caustic paths `L S+ D`, whose S includes
+//! glossy reflection; Jensen 2001, §9.1):
 //!
 //! | part        | paths          | estimated by                                          |
 //! |-------------|----------------|-------------------------------------------------------|
 //! | `direct`    | `L x`          | next-event estimation                                 |
-//! | `caustics`  | `L S+ x`       | caustic map at x                                      |
-//! | `indirect`  | `L … y S* x`   | global map at x (photons not `L x`, not `L S+ x`), or |
-//! |             | (y not `S`)    | final gather: BSDF rays from x through specular (and, |
-//! |             |                | with `trace_glossy`, glossy) surfaces to the first    |
-//! |             |                | diffuse y, global map (all photons) at y; at glossy   |
-//! |             |                | vertices on the way next-event estimation, and        |
-//! |             |                | emission after them, by the power heuristic           |
+//! | `caustics`  | `L T+ x`       | caustic map at x                                      |
+//! | `indirect`  | `L … y T* x`   | global map at x (photons not `L x`, not `L T+ x`), or |
+//! |             | (y not in T)   | final gather: BSDF rays from x through T surfaces to  |
+//! |             |                | the first other y, global map (all photons) at y      |
 //!
 //! plus emission seen through the camera's specular chain. The estimate is biased: density
 //! estimation blurs over the gather radius, and with a fixed photon count that blur never goes
@@ -43,7 +42,6 @@ use super::camera::{self, CameraWalk, VisiblePoint};
 use super::config::{Indirect, PhotonMapConfig};
 use super::map::{PhotonMap, Search};
 use super::trace::{GROUPS, Keep, PhotonTracing, stored_per_path, trace_photons, tracing_bytes};
-use crate::nee::{Competition, emission_found, environment_found, sample_direct};
 use crate::passes::{PassSpec, Schedule, run_passes, run_progressive_passes};
 use crate::paths::{PathClass, Router};
 use crate::render::{Counters, PixelVariance, Technique, named};
@@ -53,7 +51,7 @@ use crate::walk::{
     Arrival, DEEP, Directions, Lobes, PathVertex, RoulettePolicy, Visitor, Walk, continue_walk,
 };
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
-use lightlab_core::{Progress, Ray, Rgb, TransportMode};
+use lightlab_core::{Progress, Rgb, TransportMode};
 use lightlab_materials::LobeClass;
 use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
@@ -108,6 +106,7 @@ impl PhotonMapper {
         let c = &self.config;
         let max = c.max_bounces.unwrap_or(u32::MAX);
         let (lo, hi) = vp.photon_bounces(c.min_bounces, max);
+        let glossy = c.trace_glossy;
         if let Some(map) = &maps.caustic {
             map.estimate(&vp.gather, maps.caustic_search, c.kernel, |ph, g, v| {
                 if (lo..=hi).contains(&ph.bounces()) {
@@ -119,7 +118,7 @@ impl PhotonMapper {
             (Indirect::Direct, Some(map)) => {
                 let lo = lo.max(2);
                 map.estimate(&vp.gather, maps.search, c.kernel, |ph, g, v| {
-                    if !ph.is_caustic() && (lo..=hi).contains(&ph.bounces()) {
+                    if !ph.is_caustic(glossy) && (lo..=hi).contains(&ph.bounces()) {
                         deposit(l, g, &vp.class_with(&ph.class), vp.beta * v, counters);
                     }
                 });
@@ -132,8 +131,8 @@ impl PhotonMapper {
     }
 
     /// Jensen's final gather: the mean over `rays` BSDF-sampled directions of the global-map
-    /// radiance where each lands, after passing through specular surfaces. Emitters hit are
-    /// skipped: that light is `direct` (or `caustics`).
+    /// radiance where each lands, after passing through specular (and, with `trace_glossy`,
+    /// glossy) surfaces. Emitters hit are skipped: that light is `direct` or `caustics`.
     fn final_gather(
         &self,
         scene: &Scene,
@@ -163,30 +162,25 @@ impl PhotonMapper {
         from.beta = vp.beta / rays as f32;
         let mut gather = Gather {
             pm: self,
-            scene,
             map,
             search,
             l,
             origin_depth: vp.vertex.depth,
             delta_only: false,
-            glossy: false,
         };
         for _ in 0..rays {
-            gather.glossy = false;
             continue_walk(scene, &walk, &from, sampler, &mut gather, counters);
         }
     }
 }
 
 /// The final gather's visitor: the global map's estimate at the first vertex y that is neither
-/// delta nor, with `trace_glossy`, glossy. Glossy vertices on the way are path traced as on the
-/// camera side (`camera`): next-event estimation there, and emission found after one, combined
-/// by the power heuristic. No map holds those paths — the caustic map keeps `L S+ x` only — and a
-/// density estimate on a near-specular glossy surface cannot resolve its BSDF: gathering there
-/// lost the caustics seen through glass of roughness 10⁻⁴.
+/// delta nor, with `trace_glossy`, glossy. A density estimate on a near-specular glossy surface
+/// cannot resolve its BSDF (gathering there lost the caustics seen through glass of roughness
+/// 10⁻⁴), and the light that reaches x through glossy surfaces alone, `L G+ x`, is the caustic
+/// map's.
 struct Gather<'a, 'r> {
     pm: &'a PhotonMapper,
-    scene: &'a Scene,
     map: &'a PhotonMap,
     search: Search,
     l: &'a mut Sink<'r>,
@@ -194,19 +188,6 @@ struct Gather<'a, 'r> {
     origin_depth: u32,
     /// The ray chose a delta lobe at the vertex last visited (see `VisiblePoint::at_or_delta`).
     delta_only: bool,
-    /// The ray passed a glossy vertex since the visible point.
-    glossy: bool,
-}
-
-impl Gather<'_, '_> {
-    /// How emission found after a glossy vertex competes with next-event estimation there.
-    fn competition(&self) -> Competition {
-        if self.pm.config.direct {
-            Competition::Power
-        } else {
-            Competition::None
-        }
-    }
 }
 
 impl Visitor for Gather<'_, '_> {
@@ -218,15 +199,9 @@ impl Visitor for Gather<'_, '_> {
         sampler: &mut S,
         counters: &mut Counters,
     ) -> bool {
-        let (c, scene) = (&self.pm.config, self.scene);
-        if self.glossy && arrival.class.len() >= c.min_bounces {
-            let e = emission_found(scene, v, arrival, self.competition());
-            if !e.is_black() {
-                self.l
-                    .add_eye_or_count(&arrival.class, e, Technique::Camera, counters);
-            }
-        }
-        if v.depth > c.max_bounces.unwrap_or(u32::MAX) {
+        let c = &self.pm.config;
+        let max = c.max_bounces.unwrap_or(u32::MAX);
+        if v.depth > max {
             return false;
         }
         if v.delta {
@@ -236,27 +211,13 @@ impl Visitor for Gather<'_, '_> {
             && let Some(sb) = &v.sb
             && sb.bsdf.lobe_class() == LobeClass::Glossy
         {
-            let (u_light, u_point) = (sampler.next_1d(), sampler.next_2d());
-            if c.direct
-                && v.depth >= c.min_bounces
-                && let Some(d) = sample_direct(scene, v, sb, v.wo, u_light, u_point, true, counters)
-            {
-                let w = self.competition().direct_weight(&d);
-                self.l.add_eye_or_count(
-                    &v.class,
-                    v.beta * d.value * w,
-                    Technique::Camera,
-                    counters,
-                );
-            }
-            self.glossy = true;
             return true;
         }
         let Some(y) = VisiblePoint::at_or_delta(v, arrival, sampler) else {
             self.delta_only = true;
             return true;
         };
-        let (lo, hi) = y.photon_bounces(c.min_bounces, c.max_bounces.unwrap_or(u32::MAX));
+        let (lo, hi) = y.photon_bounces(c.min_bounces, max);
         let l = &mut *self.l;
         self.map
             .estimate(&y.gather, self.search, c.kernel, |ph, g, w| {
@@ -265,18 +226,6 @@ impl Visitor for Gather<'_, '_> {
                 }
             });
         false
-    }
-
-    #[inline]
-    fn escaped(&mut self, ray: &Ray, beta: Rgb, arrival: &Arrival, counters: &mut Counters) {
-        if self.glossy && arrival.class.len() >= self.pm.config.min_bounces {
-            let d = ray.d.normalize();
-            let e = environment_found(self.scene, beta, d, arrival, self.competition());
-            if !e.is_black() {
-                self.l
-                    .add_eye_or_count(&arrival.class, e, Technique::Camera, counters);
-            }
-        }
     }
 
     #[inline]
@@ -302,6 +251,13 @@ fn deposit(l: &mut Sink, group: usize, class: &PathClass, c: Rgb, counters: &mut
 }
 
 impl PhotonMapper {
+    /// Which photons the caustic map keeps: `L T+ X`, T the lobes camera paths pass.
+    fn caustic_keep(&self) -> Keep {
+        Keep::Caustic {
+            through_glossy: self.config.trace_glossy,
+        }
+    }
+
     /// How the global (`Keep::All`) or caustic (`Keep::Caustic`) map's photons are traced.
     fn tracing(&self, keep: Keep) -> PhotonTracing {
         PhotonTracing {
@@ -331,7 +287,7 @@ impl PhotonMapper {
                 seed ^ CAUSTIC_STREAM,
                 (0, c.caustic_photons),
                 time,
-                self.tracing(Keep::Caustic),
+                self.tracing(self.caustic_keep()),
                 counters,
             ))
         });
@@ -456,7 +412,7 @@ impl Integrator for PhotonMapper {
             }
         };
         let global = stored(c.indirect != Indirect::Off, c.photons, Keep::All);
-        let caustic = stored(c.caustics, c.caustic_photons, Keep::Caustic);
+        let caustic = stored(c.caustics, c.caustic_photons, self.caustic_keep());
         let maps = tracing_bytes(global).max(PhotonMap::bytes_for(global) + tracing_bytes(caustic));
         self.pass_spec(scene).bytes().saturating_add(maps as u64)
     }

@@ -75,14 +75,26 @@ impl Photon {
         self.class.len()
     }
 
-    /// Whether the photon is a caustic photon, `L S+ X`.
+    /// Whether the photon is a caustic photon: `L S+ X`, or `L (S|G)+ X` `through_glossy` (Jensen's
+    /// caustic paths, whose "specular" vertices include glossy ones, for camera paths that pass
+    /// glossy surfaces instead of gathering on them).
     #[inline]
-    pub fn is_caustic(&self) -> bool {
+    pub fn is_caustic(&self, through_glossy: bool) -> bool {
         let k = self.class.len();
-        k >= 2
-            && !self.class.is_long()
-            && (0..k - 1).all(|i| self.class.get(i) == LobeClass::Specular)
+        k >= 2 && caustic_prefix(&self.class, k - 1, through_glossy)
     }
+}
+
+/// Whether the first `n` vertices of `class` are specular (or, `through_glossy`, specular or
+/// glossy): a caustic path so far.
+#[inline]
+fn caustic_prefix(class: &PathClass, n: u32, through_glossy: bool) -> bool {
+    !class.is_long()
+        && (0..n).all(|i| match class.get(i) {
+            LobeClass::Specular => true,
+            LobeClass::Glossy => through_glossy,
+            LobeClass::Diffuse => false,
+        })
 }
 
 /// Which photons a tracing pass keeps.
@@ -90,8 +102,13 @@ impl Photon {
 pub enum Keep {
     /// Every non-specular vertex.
     All,
-    /// Only caustic photons (`L S+ X`); paths end at their first non-specular vertex.
-    Caustic,
+    /// Only caustic photons ([`Photon::is_caustic`]); paths end at their first vertex that is not
+    /// specular (or, `through_glossy`, glossy), and no photon is kept on a glossy surface then,
+    /// where no caustic estimate is made.
+    Caustic {
+        /// Glossy vertices continue a caustic path.
+        through_glossy: bool,
+    },
 }
 
 /// How photons are traced.
@@ -291,18 +308,20 @@ impl Visitor for Deposit<'_> {
                 self.photons.push(photon);
                 true
             }
-            Keep::Caustic => {
-                if photon.is_caustic() {
+            Keep::Caustic { through_glossy } => {
+                let sb = v.sb.as_ref().expect("photons land on surfaces");
+                let caustic_so_far = caustic_prefix(&v.class, v.class.len() - 1, through_glossy);
+                if through_glossy && caustic_so_far && sb.bsdf.lobe_class() == LobeClass::Glossy {
+                    // A glossy vertex continues the caustic path.
+                    return true;
+                }
+                if photon.is_caustic(through_glossy) {
                     self.photons.push(photon);
                 }
                 // A caustic path may go on through a delta lobe mixed into this surface's BSDF
                 // (plastic's coating): chosen with its probability P, so that the walk's weight,
                 // which divides by P, keeps the estimate unbiased.
-                let sb = v.sb.as_ref().expect("photons land on surfaces");
-                let specular_so_far =
-                    (0..v.class.len() - 1).all(|i| v.class.get(i) == LobeClass::Specular);
-                self.delta_only = specular_so_far
-                    && !v.class.is_long()
+                self.delta_only = caustic_so_far
                     && sb.bsdf.mixes_delta()
                     && sampler.next_1d() < sb.delta_probability(v.wo);
                 self.delta_only
