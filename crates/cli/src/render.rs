@@ -4,7 +4,7 @@ use crate::progress::{Bar, Unit};
 use crate::scene_args::{SceneArgs, shell_quote};
 use clap::Args;
 use lightlab_experiments::atomic::write_atomic;
-use lightlab_experiments::image_io::{output_layers, write_exr, write_png};
+use lightlab_experiments::image_io::{f32_overflows, output_layers, write_exr, write_png};
 use lightlab_integrators::paths::Layers;
 use lightlab_integrators::{Budget, IntegratorConfig, PixelVariance, RenderStats};
 use lightlab_testkit::timing::try_cpu_seconds;
@@ -143,6 +143,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
 
     let (w, h) = (out.film.width, out.film.height);
     let layers = output_layers(&out);
+    let overflows = f32_overflows(&layers);
     write_exr(&output, w, h, &layers).map_err(|e| e.to_string())?;
     let png = output.with_extension("png");
     write_png(&png, w, h, &layers[0].pixels, args.exposure).map_err(|e| e.to_string())?;
@@ -152,6 +153,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         "integrator": config.to_ron(),
         "lightlab_version": env!("CARGO_PKG_VERSION"),
         "render_cpu_seconds": cpu_seconds,
+        "f32_overflows": overflows.iter().cloned().collect::<std::collections::BTreeMap<_, _>>(),
         "stats": out.stats,
     });
     write_atomic(
@@ -189,6 +191,15 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
             "warning: {} non-finite contributions were left out of the image: {:?}",
             s.non_finite_total(),
             s.non_finite
+        );
+    }
+    for (layer, n) in &overflows {
+        eprintln!(
+            "warning: {n} values of layer {layer} exceed the largest 32-bit float (3.4e38) and are \
+             written to {} as infinities (the render's own f64 values are finite; its JSON lists \
+             them under f32_overflows): the scene's radiance reaches about 1e19, where its square, \
+             the variance, overflows — scale its lights down",
+            output.display()
         );
     }
     if !out.outliers.is_empty() {

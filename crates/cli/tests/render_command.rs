@@ -82,6 +82,42 @@ fn render_writes_exr_png_and_stats() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// A point light 10⁻⁵ from a floor within every documented limit: its radiance (about 4·10²²)
+/// fits a 32-bit float, its variance does not. The EXR holds infinities there; the render must
+/// say so on standard error and in its JSON, not silently.
+#[test]
+fn variance_beyond_f32_is_reported() {
+    let dir = temp_dir("overflow");
+    let scene = dir.join("hot.ron");
+    std::fs::write(
+        &scene,
+        "Scene(camera: Camera(eye: (0, 0.002, 0.00001), target: (0, 0, 0), fov: 5, resolution: (8, 8)),
+         materials: { \"plane\": Diffuse(albedo: (0.5, 0.5, 0.5)) },
+         shapes: [ Shape(geometry: Quad(corner: (-0.001, 0, -0.001), edge1: (0, 0, 0.002), edge2: (0.002, 0, 0)), material: \"plane\") ],
+         lights: [ Point(position: (0, 0.00001, 0), intensity: (1e15, 1e15, 1e15)) ])",
+    )
+    .unwrap();
+    let out = dir.join("hot.exr");
+    let run = lightlab()
+        .args(["render", "--spp", "4", "-o"])
+        .arg(&out)
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("192 values of layer variance exceed the largest 32-bit float"),
+        "{stderr}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("hot.json")).unwrap()).unwrap();
+    assert_eq!(json["f32_overflows"]["variance"], 192);
+    let (_, _, layers) = read_exr(&out).unwrap();
+    assert!(layers[0].pixels.iter().flatten().all(|v| v.is_finite()));
+    assert!(layers[1].pixels.iter().flatten().all(|v| v.is_infinite()));
+}
+
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
     let dir = temp_dir("bad");

@@ -61,6 +61,21 @@ pub fn output_layers(out: &RenderOutput) -> Vec<RgbLayer> {
     layers
 }
 
+/// Per layer, the values the 32-bit float file cannot hold: the film keeps f64, and a finite
+/// value beyond f32's range (3.4·10³⁸) — a variance, the square of a radiance above 1.8·10¹⁹, as a
+/// point light 10⁻⁵ from a surface gives — is written as an infinity. Layers without any are left
+/// out.
+pub fn f32_overflows(layers: &[RgbLayer]) -> Vec<(String, usize)> {
+    layers
+        .iter()
+        .map(|l| {
+            let n = l.pixels.iter().flatten().filter(|v| !v.is_finite()).count();
+            (l.name.clone(), n)
+        })
+        .filter(|&(_, n)| n > 0)
+        .collect()
+}
+
 /// Writes the layers as a multi-part OpenEXR file, atomically, ZIP-compressed 32-bit float.
 pub fn write_exr(
     path: &Path,
