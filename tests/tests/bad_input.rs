@@ -160,6 +160,46 @@ fn zero_area_emitter() {
     );
 }
 
+/// Collapsed triangles inside a mesh that has area, and an OBJ file's unusable normals, load (they
+/// change nothing a ray can see) but are said, as a zero-area shape is.
+#[test]
+fn collapsed_triangles_and_bad_obj_normals_are_said() {
+    let text = format!(
+        "Scene(\n{CAMERA},\n{WHITE}\n{LIGHT}\nshapes: [ Shape(geometry: Mesh(positions: [(0, 0, 0), (1, 0, 0), (0, 1, 0)], indices: [(0, 1, 2), (0, 0, 1)]), material: \"white\") ]\n)"
+    );
+    let scene = parse_scene(&text, Path::new("scenes/collapsed.ron")).unwrap();
+    assert_eq!(
+        scene.warnings,
+        [
+            "scenes/collapsed.ron: shape 0 has 1 zero-area triangles (repeated or collinear vertices): no ray can hit them"
+        ]
+    );
+    let dir = std::env::temp_dir().join(format!("lightlab-bad-normals-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 0\nvn 0 0 1\nvn 0 0 1\nf 1//1 2//2 3//3\n",
+    )
+    .unwrap();
+    let scene_path = dir.join("obj.ron");
+    std::fs::write(
+        &scene_path,
+        format!(
+            "Scene(\n{CAMERA},\n{WHITE}\n{LIGHT}\nshapes: [ Shape(geometry: Obj(file: \"tri.obj\"), material: \"white\") ]\n)"
+        ),
+    )
+    .unwrap();
+    let scene = lightlab_scene::load_scene(&scene_path).unwrap();
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("1 vertex normals are zero or not finite")),
+        "{:?}",
+        scene.warnings
+    );
+}
+
 #[test]
 fn nan_in_a_vertex() {
     assert_error(

@@ -631,7 +631,7 @@ fn mitsuba_files_render_with_their_settings_and_defines() {
     for (args, expect) in [
         (
             vec!["-D", "nope=1"],
-            "no parameter $nope (its parameters: res, spp)",
+            "never refers to $nope (its other parameters: res, spp)",
         ),
         (vec!["--set", "camera.fov=10"], "with -D NAME=VALUE"),
     ] {

@@ -108,6 +108,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
     // World-space geometry in f64, then the scene's centre.
     let mut world = Vec::with_capacity(desc.shapes.len());
     let mut bounds = Bounds::default();
+    let mut mesh_notes = Vec::new();
     bounds.add(desc.camera.eye);
     for l in &desc.lights {
         match l.0 {
@@ -139,9 +140,9 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
                     ),
                 )
             })? as u32;
-        let g = geometry(&s.geometry, &s.transform, base).map_err(|(needle, msg)| {
-            SceneError::at(path, text, &needle, format!("shape {i}: {msg}"))
-        })?;
+        let g = geometry(&s.geometry, &s.transform, base, &mut mesh_notes).map_err(
+            |(needle, msg)| SceneError::at(path, text, &needle, format!("shape {i}: {msg}")),
+        )?;
         g.extend(&mut bounds);
         world.push((material, g));
     }
@@ -164,6 +165,7 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
     };
     let mut motions = Vec::with_capacity(desc.shapes.len());
     let mut degenerate = Vec::new();
+    let mut degenerate_triangles = Vec::new();
     for (i, ((material, g), s)) in world.into_iter().zip(&desc.shapes).enumerate() {
         let needle = match &s.geometry.0 {
             GeometryRaw::Obj { file, .. } => format!("\"{file}\""),
@@ -206,6 +208,14 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
             // Allowed (it changes nothing), but most likely a typo: parallel quad edges, a mesh
             // of collapsed triangles.
             degenerate.push(i);
+        } else if let Geometry::Mesh(m) = &shape.geometry {
+            // Collapsed triangles in a mesh that has area: as harmless, and as likely a slip.
+            let collapsed = (0..m.len())
+                .filter(|&t| !(m.triangle_area(t) > 0.0))
+                .count();
+            if collapsed > 0 {
+                degenerate_triangles.push((i, collapsed));
+            }
         }
         shapes.push(shape);
         motions.push(s.motion.as_ref().map(|m| motion(m, origin)));
@@ -256,6 +266,14 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
             path.display()
         ));
     }
+    for (i, n) in degenerate_triangles {
+        scene.warnings.push(format!(
+            "{}: shape {i} has {n} zero-area triangles (repeated or collinear vertices): no ray \
+             can hit them",
+            path.display()
+        ));
+    }
+    scene.warnings.extend(mesh_notes);
     Ok(scene)
 }
 
@@ -653,11 +671,13 @@ impl WorldGeometry {
     }
 }
 
-/// Builds the geometry in world space; on error returns (text to locate, message).
+/// Builds the geometry in world space, adding what a mesh file's loading left out to `notes`; on
+/// error returns (text to locate, message).
 fn geometry(
     g: &GeometryDesc,
     t: &TransformDesc,
     base: &Path,
+    notes: &mut Vec<String>,
 ) -> Result<WorldGeometry, (String, String)> {
     let xf = Affine::new(t);
     let mesh = |positions: Vec<DVec3>,
@@ -690,6 +710,7 @@ fn geometry(
         GeometryRaw::Obj { file, normals } => {
             let m = load_obj(&base.join(file), *normals, true)
                 .map_err(|m| (format!("\"{file}\""), m))?;
+            notes.extend(m.notes);
             mesh(m.positions, m.indices, m.normals, m.uvs)
         }
         GeometryRaw::Quad {
@@ -759,6 +780,8 @@ pub(crate) struct MeshFile {
     pub indices: Vec<[u32; 3]>,
     pub normals: Option<Vec<Vec3>>,
     pub uvs: Option<Vec<Vec2>>,
+    /// What was left out of the file, for the scene's warnings.
+    pub notes: Vec<String>,
 }
 
 /// Reads every object of an OBJ file into one triangle mesh; `flip_v` turns the file's texture
@@ -835,17 +858,38 @@ pub(crate) fn load_obj(file: &Path, use_normals: bool, flip_v: bool) -> Result<M
             file.display()
         ));
     }
-    let normals = all_have_normals
-        .then_some(normals)
-        .filter(|ns| ns.iter().all(|n| n.is_finite() && n.length_squared() > 0.0));
-    let uvs = all_have_uvs
-        .then_some(uvs)
-        .filter(|uvs| uvs.iter().all(|uv| uv.is_finite()));
+    let mut notes = Vec::new();
+    let normals = all_have_normals.then_some(normals).filter(|ns| {
+        let bad = ns
+            .iter()
+            .filter(|n| !(n.is_finite() && n.length_squared() > 0.0));
+        let bad = bad.count();
+        if bad > 0 {
+            notes.push(format!(
+                "mesh file {}: {bad} vertex normals are zero or not finite, so the file's normals \
+                 are not used (the triangles' own normals shade it)",
+                file.display()
+            ));
+        }
+        bad == 0
+    });
+    let uvs = all_have_uvs.then_some(uvs).filter(|uvs| {
+        let bad = uvs.iter().filter(|uv| !uv.is_finite()).count();
+        if bad > 0 {
+            notes.push(format!(
+                "mesh file {}: {bad} texture coordinates are not finite, so the file's texture \
+                 coordinates are not used (textures see each triangle's barycentric coordinates)",
+                file.display()
+            ));
+        }
+        bad == 0
+    });
     Ok(MeshFile {
         positions,
         indices,
         normals,
         uvs,
+        notes,
     })
 }
 

@@ -99,7 +99,7 @@ fn defaults_are_substituted_and_overridden_by_defines() {
     assert_eq!(i.desc.camera.resolution, (24, 24));
     // A -D the scene never uses is a typo.
     let e = import_in("unused-define", body, &[("sp", "9")]).unwrap_err();
-    assert!(e.to_string().contains("no parameter $sp"), "{e}");
+    assert!(e.to_string().contains("never refers to $sp"), "{e}");
     // An undefined $name is located.
     let (line, _, m) = err(
         "undefined",
@@ -301,6 +301,20 @@ fn transforms_compose_in_order_like_mitsuba() {
         positions.iter().any(|p| (*p - mitsuba).length() < 1e-6),
         "{positions:?}"
     );
+    // A projective matrix (a bottom row other than 0 0 0 1) is refused, not dropped.
+    for row in ["0 0 0 2", "0.3 0 0 1"] {
+        let (line, _, message) = err(
+            "projective",
+            &format!(
+                r#"{SENSOR}<shape type="rectangle"><transform name="to_world">
+                <matrix value="1 0 0 0  0 1 0 0  0 0 1 0  {row}"/></transform></shape>"#
+            ),
+        );
+        assert!(
+            line > 1 && message.contains("bottom row must be 0 0 0 1"),
+            "{line}: {message}"
+        );
+    }
 }
 
 #[test]
@@ -382,6 +396,20 @@ fn sensors_map_fov_axes_lenses_and_mirrors() {
             focus_distance: 3.5
         }
     );
+    // A bad fov_axis names the values allowed; without fov there is nothing for it to apply to.
+    let (_, _, m) = err(
+        "fov-axis-value",
+        r#"<sensor type="perspective"><float name="fov" value="40"/><string name="fov_axis" value="q"/></sensor>"#,
+    );
+    assert!(
+        m.contains("not one of x, y, diagonal, smaller, larger"),
+        "{m}"
+    );
+    let (_, _, m) = err(
+        "fov-axis-alone",
+        r#"<sensor type="perspective"><string name="fov_axis" value="y"/></sensor>"#,
+    );
+    assert!(m.contains("fov_axis applies to fov only"), "{m}");
     // A reflecting sensor transform mirrors the image.
     let mirrored = r#"<sensor type="perspective"><float name="fov" value="40"/>
         <transform name="to_world"><scale x="-1"/></transform></sensor>"#;

@@ -104,7 +104,7 @@ pub fn import(path: &Path, defines: &[(String, String)]) -> Result<Imported, Sce
                 let o = Object::new(el)?;
                 let bsdf = o.nested(&["bsdf", "ref"]);
                 let emitter = o.nested(&["emitter"]);
-                let (geometry, transform) = shapes::geometry(&o, base)?;
+                let (geometry, transform) = shapes::geometry(&o, base, &mut notes)?;
                 o.finish()?;
                 if o.ty == "disk" {
                     notes.push(format!(

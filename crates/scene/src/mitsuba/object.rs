@@ -336,7 +336,15 @@ fn transform(t: &Element) -> Result<DMat4, SceneError> {
                 c.only_attrs(&["value"])?;
                 let n = numbers(c.require("value")?).map_err(|e| c.at.error(e))?;
                 match n.len() {
-                    // Row-major in the file; glam is column-major.
+                    // Row-major in the file; glam is column-major. Shapes, cameras and lights
+                    // take affine maps: a projective bottom row (Mitsuba divides by w) is refused
+                    // rather than dropped.
+                    16 if n[12..16] != [0.0, 0.0, 0.0, 1.0] => {
+                        return Err(c.at.error(format!(
+                            "<matrix> bottom row must be 0 0 0 1 (an affine transform), got {} {} {} {}",
+                            n[12], n[13], n[14], n[15]
+                        )));
+                    }
                     16 => DMat4::from_cols_slice(&n).transpose(),
                     9 => DMat4::from_mat3(DMat3::from_cols_slice(&n).transpose()),
                     k => {

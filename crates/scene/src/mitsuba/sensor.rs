@@ -63,6 +63,12 @@ pub(crate) fn sensor(el: &Element) -> Result<Sensor, SceneError> {
         (Some(_), Some(_)) => return Err(o.error("give fov or focal_length, not both")),
         (Some(fov), None) => (fov, o.string("fov_axis")?.unwrap_or("x")),
         (None, f) => {
+            if o.string("fov_axis")?.is_some() {
+                return Err(o.error(
+                    "fov_axis applies to fov only (Mitsuba ignores it with focal_length): give fov, \
+                     or drop fov_axis",
+                ));
+            }
             let f = f.unwrap_or("50mm");
             let mm: f64 = f
                 .trim()

@@ -21,10 +21,11 @@ use std::path::Path;
 
 /// The world-space geometry of a `<shape>` and the transform that places it (the identity except
 /// for spheres, which keep their rotation for their parameterisation); its nested BSDF and emitter
-/// are read by the caller.
+/// are read by the caller. What a mesh file's loading left out goes to `notes`.
 pub(crate) fn geometry(
     o: &Object,
     base: &Path,
+    notes: &mut Vec<String>,
 ) -> Result<(GeometryDesc, TransformDesc), SceneError> {
     let mut transform = TransformDesc::default();
     let to_world = o.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
@@ -43,6 +44,7 @@ pub(crate) fn geometry(
                 load_ply(&path)
             }
             .map_err(|m| o.error(m))?;
+            notes.extend(m.notes.iter().cloned());
             mesh(m, face_normals, to_world, flip)
         }
         "rectangle" => {
@@ -232,6 +234,7 @@ fn mesh(m: MeshFile, face_normals: bool, to_world: DMat4, flip: bool) -> Geometr
         indices,
         normals,
         uvs,
+        ..
     } = m;
     let positions: Vec<DVec3> = positions
         .into_iter()
@@ -374,16 +377,33 @@ fn load_ply(path: &Path) -> Result<MeshFile, String> {
     if indices.is_empty() {
         return Err(format!("PLY file {} has no faces", path.display()));
     }
-    let normals = (normals.len() == positions.len()
-        && normals
-            .iter()
-            .all(|n| n.is_finite() && n.length_squared() > 0.0))
-    .then_some(normals);
-    let uvs = (uvs.len() == positions.len() && uvs.iter().all(|uv| uv.is_finite())).then_some(uvs);
+    let mut notes = Vec::new();
+    let bad_normals = normals
+        .iter()
+        .filter(|n| !(n.is_finite() && n.length_squared() > 0.0))
+        .count();
+    if normals.len() == positions.len() && bad_normals > 0 {
+        notes.push(format!(
+            "mesh file {}: {bad_normals} vertex normals are zero or not finite, so the file's \
+             normals are not used (the triangles' own normals shade it)",
+            path.display()
+        ));
+    }
+    let normals = (normals.len() == positions.len() && bad_normals == 0).then_some(normals);
+    let bad_uvs = uvs.iter().filter(|uv| !uv.is_finite()).count();
+    if uvs.len() == positions.len() && bad_uvs > 0 {
+        notes.push(format!(
+            "mesh file {}: {bad_uvs} texture coordinates are not finite, so the file's texture \
+             coordinates are not used (textures see each triangle's barycentric coordinates)",
+            path.display()
+        ));
+    }
+    let uvs = (uvs.len() == positions.len() && bad_uvs == 0).then_some(uvs);
     Ok(MeshFile {
         positions,
         indices,
         normals,
         uvs,
+        notes,
     })
 }

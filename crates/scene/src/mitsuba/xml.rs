@@ -92,7 +92,7 @@ impl Params {
                 line: 1,
                 col: 1,
                 message: format!(
-                    "-D {name}=…: the scene has no parameter ${name} (its parameters: {})",
+                    "-D {name}=…: the scene never refers to ${name} (its other parameters: {})",
                     {
                         // The scene's own parameters, not the unused -D names themselves.
                         let own: Vec<&str> = self
