@@ -200,6 +200,16 @@ fn collapsed_triangles_and_bad_obj_normals_are_said() {
     );
 }
 
+/// A texture's settings error points at the texture's entry, not at the top of the file.
+#[test]
+fn texture_settings_errors_are_located() {
+    assert_error(
+        &format!("{WHITE}\n{LIGHT}\ntextures: {{\n \"t\": Checkerboard(scale: (NaN, 1)),\n}},"),
+        6,
+        &["texture \"t\"", "must be finite"],
+    );
+}
+
 #[test]
 fn nan_in_a_vertex() {
     assert_error(

@@ -873,7 +873,15 @@ impl TryFrom<GeometryRaw> for GeometryDesc {
             GeometryRaw::Sphere { center, radius } => {
                 finite_dvec("Sphere center", *center)?;
                 if !(*radius > 0.0 && radius.is_finite()) {
-                    return Err(format!("Sphere radius must be > 0, got {radius}"));
+                    return Err(format!(
+                        "Sphere radius must be finite and > 0, got {radius}{}",
+                        if radius.is_infinite() {
+                            " (a number beyond 3.4e38 reads as infinity; shapes may reach at \
+                             most 1e9 from the scene's centre)"
+                        } else {
+                            ""
+                        }
+                    ));
                 }
             }
             GeometryRaw::Cuboid { half_extents } => {

@@ -90,6 +90,14 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         .iter()
         .map(|(name, t)| {
             crate::textures::texture(t, base).map_err(|(needle, m)| {
+                // A settings error is located at the texture's entry, `"name":`.
+                let needle = match needle.is_empty() {
+                    true => [format!("\"{name}\":"), format!("\"{name}\"")]
+                        .into_iter()
+                        .find(|n| text.contains(n.as_str()))
+                        .unwrap_or_default(),
+                    false => needle,
+                };
                 SceneError::at(path, text, &needle, format!("texture \"{name}\": {m}"))
             })
         })

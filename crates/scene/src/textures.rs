@@ -10,7 +10,7 @@ use std::path::Path;
 /// The texture `t` describes, its image read relative to `base`; on error (text to locate,
 /// message).
 pub(crate) fn texture(t: &TextureDesc, base: &Path) -> Result<Texture, (String, String)> {
-    t.check().map_err(|m| ("Texture".to_string(), m))?;
+    t.check().map_err(|m| (String::new(), m))?;
     let to_uv = match t.placement() {
         (_, _, Some([[a, b, c], [d, e, f]])) => Affine2::from_cols_array(&[a, d, b, e, c, f]),
         (scale, offset, None) => Affine2::from_scale_angle_translation(
