@@ -455,6 +455,12 @@ fn mesh_file_errors_name_the_problem() {
             "three numbers",
         ),
         (
+            "nan.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv nan 0 0\nf 1 2 3\n",
+            4,
+            "a vertex must be finite",
+        ),
+        (
             "f.obj",
             "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
             4,

@@ -928,6 +928,13 @@ fn check_obj_syntax(file: &Path) -> Result<(), String> {
                 if coords.len() < 3 || coords.iter().take(3).any(|w| w.parse::<f64>().is_err()) {
                     return bad("a vertex needs three numbers");
                 }
+                if coords
+                    .iter()
+                    .take(3)
+                    .any(|w| w.parse::<f64>().is_ok_and(|x| !x.is_finite()))
+                {
+                    return bad("a vertex must be finite");
+                }
                 counts[0] += 1;
             }
             Some("vt") => counts[1] += 1,
