@@ -319,6 +319,11 @@ fn bad_camera() {
         bad("camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (0, 8))")
             .contains("resolution")
     );
+    // A field's error points at the field, not at the end of `Camera(...)`.
+    let e = bad(
+        "camera: Camera(\n eye: (0, 0, 3),\n target: (0, 0, 0),\n fov: 190,\n resolution: (8, 8),\n)",
+    );
+    assert!(e.starts_with("scenes/bad.ron:5:2: camera fov"), "{e}");
     // RON's own "Integer is out of bounds" now says what the field holds.
     let e = bad("camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (-8, 8))");
     assert!(

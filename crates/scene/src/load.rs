@@ -43,6 +43,34 @@ pub fn build_scene(desc: SceneDesc, path: &Path) -> Result<Scene, SceneError> {
     build(desc, "", path)
 }
 
+/// Where the field lies that a camera's validation names ("camera fov must be …"): ron reports
+/// such an error at the end of `Camera(...)`, so the field is the last `fov:` between the camera's
+/// opening and that position.
+fn field_of_camera_error(text: &str, e: &ron::error::SpannedError) -> Option<(usize, usize)> {
+    let ron::Error::Message(m) = &e.code else {
+        return None;
+    };
+    let field = m.strip_prefix("camera ")?.split_whitespace().next()?;
+    // The byte offset of ron's (1-based, character) line and column.
+    let line_start: usize = text
+        .split_inclusive('\n')
+        .take(e.span.start.line.saturating_sub(1))
+        .map(str::len)
+        .sum();
+    let end = line_start
+        + text[line_start..]
+            .chars()
+            .take(e.span.start.col.saturating_sub(1))
+            .map(char::len_utf8)
+            .sum::<usize>();
+    let camera = text[..end].rfind("Camera(")?;
+    let at = camera + text[camera..end].rfind(&format!("{field}:"))?;
+    let before = &text[..at];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    Some((line, col))
+}
+
 /// Builds a scene from RON `text`; `path` names it in errors and anchors relative mesh paths.
 pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
     // A byte-order mark (some editors write one) is not part of the RON.
@@ -55,10 +83,12 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<Scene, SceneError> {
         let end_line = body.matches('\n').count() + 1;
         let end_col = body.len() - body.rfind('\n').map_or(0, |i| i + 1) + 1;
         let at_end = (e.span.start.line, e.span.start.col) >= (end_line, end_col);
+        let (line, col) =
+            field_of_camera_error(text, &e).unwrap_or((e.span.start.line, e.span.start.col));
         SceneError::Invalid {
             path: path.to_path_buf(),
-            line: e.span.start.line,
-            col: e.span.start.col,
+            line,
+            col,
             message: if matches!(e.code, ron::Error::Eof) || at_end {
                 format!(
                     "unexpected end of file: the file stops inside a value (is it truncated, or \
