@@ -146,8 +146,8 @@ settings! {
     PhotonMapConfig as "PhotonMap" {
         /// Photon paths traced for the global map. Default 200 000.
         photons: u64 = 200_000,
-        /// Photon paths traced for the caustic map (only their `L S+ X` photons are kept).
-        /// Default 200 000.
+        /// Photon paths traced for the caustic map (only their `L S+ X` photons are kept, or with
+        /// `trace_glossy` their `L (S|G)+ X` ones). Default 200 000.
         caustic_photons: u64 = 200_000,
         /// Gathering from the global map. Default `Nearest(k: 50, max_radius: Relative(0.1))`.
         gather: Gather = Gather::Nearest {
@@ -163,7 +163,8 @@ settings! {
         kernel: Kernel = Kernel::Uniform,
         /// Direct lighting by next-event estimation at the visible point (`L D S* E`). Default true.
         direct: bool = true,
-        /// Caustics from the caustic map (`L S+ D S* E`). Default true.
+        /// Caustics from the caustic map (`L S+ D S* E`, or with `trace_glossy` `L (S|G)+ D (S|G)* E`).
+        /// Default true.
         caustics: bool = true,
         /// Indirect diffuse light: `Off`, `Direct` or `FinalGather(rays: N)`.
         /// Default `FinalGather(rays: 16)`.

@@ -15,7 +15,8 @@
 //! |             | (y not in T)   | final gather: BSDF rays from x through T surfaces to  |
 //! |             |                | the first other y, global map (all photons) at y      |
 //!
-//! plus emission seen through the camera's specular chain. The estimate is biased: density
+//! plus emission seen through the camera's chain of T vertices (with next-event estimation at its
+//! glossy ones). The estimate is biased: density
 //! estimation blurs over the gather radius, and with a fixed photon count that blur never goes
 //! away, however many camera samples are taken — the method is consistent only as the photon
 //! count grows and the radius (or k/N) shrinks with it (Jensen 2001, §7.2; progressive photon
@@ -147,11 +148,11 @@ impl PhotonMapper {
         let c = &self.config;
         let max = c.max_bounces.unwrap_or(u32::MAX);
         // Chains from x to y are short and end at y: no roulette until a walk is `DEEP` (glossy
-        // surfaces facing each other with no diffuse one in sight), where it must end. As on the
-        // camera side, emission is found at the vertex after the last one a path may scatter at.
+        // surfaces facing each other with no diffuse one in sight), where it must end. The walk
+        // counts no emission (that light is `direct` or `caustics`), so it ends at depth `max`.
         let walk = Walk {
             mode: TransportMode::Radiance,
-            max_depth: max.saturating_add(1),
+            max_depth: max,
             roulette: RoulettePolicy {
                 start: Some(DEEP),
                 threshold: 1.0,
@@ -200,10 +201,6 @@ impl Visitor for Gather<'_, '_> {
         counters: &mut Counters,
     ) -> bool {
         let c = &self.pm.config;
-        let max = c.max_bounces.unwrap_or(u32::MAX);
-        if v.depth > max {
-            return false;
-        }
         if v.delta {
             return true;
         }
@@ -217,7 +214,7 @@ impl Visitor for Gather<'_, '_> {
             self.delta_only = true;
             return true;
         };
-        let (lo, hi) = y.photon_bounces(c.min_bounces, max);
+        let (lo, hi) = y.photon_bounces(c.min_bounces, c.max_bounces.unwrap_or(u32::MAX));
         let l = &mut *self.l;
         self.map
             .estimate(&y.gather, self.search, c.kernel, |ph, g, w| {
