@@ -38,9 +38,13 @@ impl SceneError {
 
 /// 1-based line and column (in characters) of the first occurrence of `needle`.
 pub(crate) fn locate(text: &str, needle: &str) -> Option<(usize, usize)> {
-    let at = text.find(needle)?;
+    text.find(needle).map(|at| line_col(text, at))
+}
+
+/// 1-based line and column (in characters) of byte offset `at` of `text`.
+pub(crate) fn line_col(text: &str, at: usize) -> (usize, usize) {
     let before = &text[..at];
     let line = before.matches('\n').count() + 1;
     let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    Some((line, col))
+    (line, col)
 }

@@ -65,10 +65,7 @@ fn field_of_camera_error(text: &str, e: &ron::error::SpannedError) -> Option<(us
             .sum::<usize>();
     let camera = text[..end].rfind("Camera(")?;
     let at = camera + text[camera..end].rfind(&format!("{field}:"))?;
-    let before = &text[..at];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    Some((line, col))
+    Some(crate::error::line_col(text, at))
 }
 
 /// Builds a scene from RON `text`; `path` names it in errors and anchors relative mesh paths.
@@ -121,12 +118,13 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         .map(|(name, t)| {
             crate::textures::texture(t, base).map_err(|(needle, m)| {
                 // A settings error is located at the texture's entry, `"name":`.
-                let needle = match needle.is_empty() {
-                    true => [format!("\"{name}\":"), format!("\"{name}\"")]
+                let needle = if needle.is_empty() {
+                    [format!("\"{name}\":"), format!("\"{name}\"")]
                         .into_iter()
                         .find(|n| text.contains(n.as_str()))
-                        .unwrap_or_default(),
-                    false => needle,
+                        .unwrap_or_default()
+                } else {
+                    needle
                 };
                 SceneError::at(path, text, &needle, format!("texture \"{name}\": {m}"))
             })
@@ -896,12 +894,34 @@ pub(crate) fn load_obj(file: &Path, use_normals: bool, flip_v: bool) -> Result<M
             file.display()
         ));
     }
+    let (normals, uvs, notes) = usable_attributes(
+        file,
+        all_have_normals.then_some(normals),
+        all_have_uvs.then_some(uvs),
+    );
+    Ok(MeshFile {
+        positions,
+        indices,
+        normals,
+        uvs,
+        notes,
+    })
+}
+
+/// A mesh file's per-vertex normals and texture coordinates where every one is usable (normals
+/// finite and non-zero, texture coordinates finite), with a note for each set left out, so that
+/// the file's own shading is not dropped silently.
+pub(crate) fn usable_attributes(
+    file: &Path,
+    normals: Option<Vec<Vec3>>,
+    uvs: Option<Vec<Vec2>>,
+) -> (Option<Vec<Vec3>>, Option<Vec<Vec2>>, Vec<String>) {
     let mut notes = Vec::new();
-    let normals = all_have_normals.then_some(normals).filter(|ns| {
+    let normals = normals.filter(|ns| {
         let bad = ns
             .iter()
-            .filter(|n| !(n.is_finite() && n.length_squared() > 0.0));
-        let bad = bad.count();
+            .filter(|n| !(n.is_finite() && n.length_squared() > 0.0))
+            .count();
         if bad > 0 {
             notes.push(format!(
                 "mesh file {}: {bad} vertex normals are zero or not finite, so the file's normals \
@@ -911,7 +931,7 @@ pub(crate) fn load_obj(file: &Path, use_normals: bool, flip_v: bool) -> Result<M
         }
         bad == 0
     });
-    let uvs = all_have_uvs.then_some(uvs).filter(|uvs| {
+    let uvs = uvs.filter(|uvs| {
         let bad = uvs.iter().filter(|uv| !uv.is_finite()).count();
         if bad > 0 {
             notes.push(format!(
@@ -922,13 +942,7 @@ pub(crate) fn load_obj(file: &Path, use_normals: bool, flip_v: bool) -> Result<M
         }
         bad == 0
     });
-    Ok(MeshFile {
-        positions,
-        indices,
-        normals,
-        uvs,
-        notes,
-    })
+    (normals, uvs, notes)
 }
 
 /// Reads an OBJ file's vertex and face lines the way the loader will, so that a malformed line is

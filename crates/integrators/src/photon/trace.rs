@@ -315,7 +315,7 @@ impl Visitor for Deposit<'_> {
                     // A glossy vertex continues the caustic path.
                     return true;
                 }
-                if photon.is_caustic(through_glossy) {
+                if caustic_so_far && v.class.len() >= 2 {
                     self.photons.push(photon);
                 }
                 // A caustic path may go on through a delta lobe mixed into this surface's BSDF

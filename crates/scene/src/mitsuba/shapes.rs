@@ -377,28 +377,12 @@ fn load_ply(path: &Path) -> Result<MeshFile, String> {
     if indices.is_empty() {
         return Err(format!("PLY file {} has no faces", path.display()));
     }
-    let mut notes = Vec::new();
-    let bad_normals = normals
-        .iter()
-        .filter(|n| !(n.is_finite() && n.length_squared() > 0.0))
-        .count();
-    if normals.len() == positions.len() && bad_normals > 0 {
-        notes.push(format!(
-            "mesh file {}: {bad_normals} vertex normals are zero or not finite, so the file's \
-             normals are not used (the triangles' own normals shade it)",
-            path.display()
-        ));
-    }
-    let normals = (normals.len() == positions.len() && bad_normals == 0).then_some(normals);
-    let bad_uvs = uvs.iter().filter(|uv| !uv.is_finite()).count();
-    if uvs.len() == positions.len() && bad_uvs > 0 {
-        notes.push(format!(
-            "mesh file {}: {bad_uvs} texture coordinates are not finite, so the file's texture \
-             coordinates are not used (textures see each triangle's barycentric coordinates)",
-            path.display()
-        ));
-    }
-    let uvs = (uvs.len() == positions.len() && bad_uvs == 0).then_some(uvs);
+    let n = positions.len();
+    let (normals, uvs, notes) = crate::load::usable_attributes(
+        path,
+        (normals.len() == n).then_some(normals),
+        (uvs.len() == n).then_some(uvs),
+    );
     Ok(MeshFile {
         positions,
         indices,
