@@ -535,6 +535,19 @@ fn impossible_motion() {
         6,
         &["translat", "translate"],
     );
+    // Keys too far apart for f32 to interpolate between (3e38 − (−3e38) overflows).
+    assert_error(
+        &shape("Motion(keys: [Key(time: -3e38), Key(time: 3e38, translate: (1, 0, 0))])"),
+        6,
+        &["farther apart than f32", "-3", "interpolated"],
+    );
+    // A motion that carries the shape beyond f32's range while the shutter (here the instant 0)
+    // is open.
+    assert_error(
+        &shape("Motion(keys: [Key(time: -1, translate: (3e38, 0, 0)), Key(time: 1)])"),
+        6,
+        &["moving shapes reach", "while the shutter is open"],
+    );
     // Emitters stay at rest: light sampling and emission use them there.
     assert_error(
         &format!(
@@ -554,6 +567,16 @@ fn impossible_shutter() {
         .to_string();
     assert!(
         e.starts_with("scenes/bad.ron:") && e.contains("open ≤ close"),
+        "{e}"
+    );
+    // Finite ends whose difference overflows: every sample time would be the close.
+    let text = "Scene(camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (8, 8),\n shutter: (-3e38, 3e38)))";
+    let e = parse_scene(text, Path::new("scenes/bad.ron"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.starts_with("scenes/bad.ron:") && e.contains("longer than f32 holds"),
         "{e}"
     );
 }

@@ -252,8 +252,9 @@ fn compare_layouts() {
         };
         for layout in [Layout::Compressed, Layout::Wide] {
             let input = shapes.clone();
-            let (accel, build, _) =
-                timed(|| pool.install(|| Accel::with_layout(input, Vec::new(), layout)));
+            let (accel, build, _) = timed(|| {
+                pool.install(|| Accel::with_layout(input, Vec::new(), (0.0, 0.0), layout))
+            });
             let rate = |rays: &[Ray], closest| {
                 pool.install(|| trace(&accel, &rays[..WARM_UP], closest));
                 let (_, wall, _) = timed(|| pool.install(|| trace(&accel, rays, closest)));

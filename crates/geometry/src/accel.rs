@@ -170,27 +170,37 @@ impl Accel {
     /// conversion, `medium_build`), in parallel on the current rayon pool. Degenerate triangles
     /// and spheres of non-positive radius are left out: they can never be hit.
     pub fn new(shapes: Vec<Shape>) -> Accel {
-        Accel::with_motion(shapes, Vec::new())
+        Accel::with_motion(shapes, Vec::new(), (0.0, 0.0))
     }
 
     /// As [`Accel::new`], with `motion[i]` (where given and `Some`) moving shape `i` rigidly over
-    /// time: shape `i` is then its rest geometry, [`Ray::time`] says where it is.
-    pub fn with_motion(shapes: Vec<Shape>, motion: Vec<Option<Motion>>) -> Accel {
-        Accel::with_layout(shapes, motion, Layout::BySize)
+    /// time: shape `i` is then its rest geometry, [`Ray::time`] says where it is. Rays' times lie
+    /// in `shutter` (open, close): the bounds of moving shapes cover those times only.
+    pub fn with_motion(
+        shapes: Vec<Shape>,
+        motion: Vec<Option<Motion>>,
+        shutter: (f32, f32),
+    ) -> Accel {
+        Accel::with_layout(shapes, motion, shutter, Layout::BySize)
     }
 
     /// As [`Accel::with_motion`] with the structure chosen by `layout` (benchmarks and tests
     /// compare them; a wide BVH deeper than its traversal stack falls back to the CWBVH).
-    pub fn with_layout(shapes: Vec<Shape>, motion: Vec<Option<Motion>>, layout: Layout) -> Accel {
+    pub fn with_layout(
+        shapes: Vec<Shape>,
+        motion: Vec<Option<Motion>>,
+        shutter: (f32, f32),
+        layout: Layout,
+    ) -> Accel {
         let mut refs = Vec::new();
         let mut boxes: Vec<(Vec3, Vec3)> = Vec::new();
         let mut moving = Vec::new();
         for (s, shape) in shapes.iter().enumerate() {
             let shape_id = s as u32;
             if let Some(Some(m)) = motion.get(s) {
-                let accel = Accel::with_layout(vec![shape.clone()], Vec::new(), layout);
+                let accel = Accel::with_layout(vec![shape.clone()], Vec::new(), shutter, layout);
                 let (lo, hi) = accel.bounds();
-                let swept = m.swept_bounds((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+                let swept = m.swept_bounds((lo + hi) * 0.5, (hi - lo).length() * 0.5, shutter);
                 moving.push(Moving {
                     shape: shape_id,
                     motion: m.clone(),
@@ -709,7 +719,7 @@ mod tests {
     const LAYOUTS: [Layout; 2] = [Layout::Compressed, Layout::Wide];
 
     fn build(layout: Layout, shapes: Vec<Shape>) -> Accel {
-        Accel::with_layout(shapes, Vec::new(), layout)
+        Accel::with_layout(shapes, Vec::new(), (0.0, 0.0), layout)
     }
 
     /// Closest hit over every primitive of every shape, with the same primitive tests.
@@ -997,7 +1007,7 @@ mod tests {
         {
             let shapes = scene(21, scale, offset);
             let motion = motions(&shapes, 22, scale, offset);
-            let accel = Accel::with_layout(shapes.clone(), motion.clone(), layout);
+            let accel = Accel::with_layout(shapes.clone(), motion.clone(), (0.0, 1.0), layout);
             assert!(accel.has_motion() && accel.motion(1).is_some() && accel.motion(0).is_none());
             let mut rng = Pcg64::seed_from_u64(23);
             let mut moving_hits = 0;
@@ -1093,7 +1103,7 @@ mod tests {
                 let shapes = vec![shape(geometry, 0)];
                 let motion = motions(&[shapes[0].clone(), shapes[0].clone()], 5, scale, offset);
                 let m = motion[1].clone().unwrap();
-                let accel = Accel::with_layout(shapes, vec![Some(m.clone())], layout);
+                let accel = Accel::with_layout(shapes, vec![Some(m.clone())], (0.0, 1.0), layout);
                 let mut rng = Pcg64::seed_from_u64(6);
                 let mut tested = 0;
                 for k in 0..20_000 {

@@ -47,8 +47,18 @@ impl Motion {
 
     /// The transform at time `t`.
     pub fn at(&self, t: f32) -> RigidTransform {
+        let (translate, rotate) = self.state(t);
+        let r = Mat3::from_quat(rotate);
+        RigidTransform {
+            r,
+            c: self.pivot + translate - r * self.pivot,
+        }
+    }
+
+    /// Translation and rotation at time `t`, interpolated between the keys around it.
+    fn state(&self, t: f32) -> (Vec3, Quat) {
         let keys = &self.keys;
-        let (translate, rotate) = match keys.partition_point(|k| k.time <= t) {
+        match keys.partition_point(|k| k.time <= t) {
             0 => (keys[0].translate, keys[0].rotate),
             i if i == keys.len() => (keys[i - 1].translate, keys[i - 1].rotate),
             i => {
@@ -59,25 +69,44 @@ impl Motion {
                     a.rotate.slerp(b.rotate, s).normalize(),
                 )
             }
-        };
-        let r = Mat3::from_quat(rotate);
-        RigidTransform {
-            r,
-            c: self.pivot + translate - r * self.pivot,
         }
     }
 
     /// A box containing every position of a rest-frame ball (centre `center`, radius `radius`) at
-    /// any time: rotations keep its centre at distance |center − pivot| from the pivot, and the
-    /// translations stay in the box of the keys' translations.
-    pub fn swept_bounds(&self, center: Vec3, radius: f32) -> (Vec3, Vec3) {
-        let (lo, hi) = self.keys.iter().fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), k| (lo.min(k.translate), hi.max(k.translate)),
-        );
+    /// any time in `[open, close]` (the shutter: keys outside it never show, so they must not
+    /// widen the box, nor the scene's extent and the photon radii taken from it): rotations keep
+    /// its centre at distance |center − pivot| from the pivot, and the translation, piecewise
+    /// linear, stays in the box of its values at `open`, at `close` and at the keys between.
+    pub fn swept_bounds(
+        &self,
+        center: Vec3,
+        radius: f32,
+        (open, close): (f32, f32),
+    ) -> (Vec3, Vec3) {
+        let inside = self.keys.iter().filter(|k| k.time > open && k.time < close);
+        let (lo, hi) = [self.state(open).0, self.state(close).0]
+            .into_iter()
+            .chain(inside.map(|k| k.translate))
+            .fold(
+                (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                |(lo, hi), t| (lo.min(t), hi.max(t)),
+            );
+        // The interpolation rounds relative to the keys it starts from: those of the segments
+        // that overlap the shutter.
+        let first = self
+            .keys
+            .partition_point(|k| k.time <= open)
+            .saturating_sub(1);
+        let last = self
+            .keys
+            .partition_point(|k| k.time < close)
+            .min(self.keys.len() - 1);
+        let keys = self.keys[first..=last]
+            .iter()
+            .fold(Vec3::ZERO, |m, k| m.max(k.translate.abs()));
         let reach = (center - self.pivot).length() + radius;
         // Rounding of the sums and of the rotation, relative to the magnitudes involved.
-        let pad = Vec3::splat(reach) + self.pivot.abs() + lo.abs().max(hi.abs());
+        let pad = Vec3::splat(reach) + self.pivot.abs() + keys.max(lo.abs().max(hi.abs()));
         let reach = Vec3::splat(reach) + pad * (4.0 * f32::EPSILON);
         (self.pivot + lo - reach, self.pivot + hi + reach)
     }
@@ -197,10 +226,50 @@ mod tests {
         )
         .unwrap();
         let (c, r) = (Vec3::new(2.0, 1.0, 0.5), 0.25);
-        let (lo, hi) = m.swept_bounds(c, r);
+        let (lo, hi) = m.swept_bounds(c, r, (0.0, 1.0));
         for i in 0..=1000 {
             let w = m.at(i as f32 / 1000.0).point(c);
             assert!((w - Vec3::splat(r)).cmpge(lo).all() && (w + Vec3::splat(r)).cmple(hi).all());
+        }
+    }
+
+    /// Over part of the keys' time span (a shutter shorter than the animation) the box bounds
+    /// every instant of that part and leaves out where the shape goes afterwards.
+    #[test]
+    fn swept_bounds_cover_only_the_shutter() {
+        let m = Motion::new(
+            Vec3::ZERO,
+            vec![
+                key(0.0, Vec3::ZERO, 0.0),
+                key(1.0, Vec3::new(0.0, -0.5, 0.0), 60.0),
+                key(2.0, Vec3::new(0.0, -0.5, 0.0), 60.0),
+                key(3.0, Vec3::new(1000.0, -0.5, 0.0), 0.0),
+            ],
+        )
+        .unwrap();
+        let (c, r) = (Vec3::new(0.3, 0.2, 0.1), 0.1);
+        for shutter in [
+            (0.0, 1.0),
+            (0.25, 0.75),
+            (0.5, 2.5),
+            (2.5, 2.5),
+            (-1.0, 0.0),
+        ] {
+            let (lo, hi) = m.swept_bounds(c, r, shutter);
+            for i in 0..=1000 {
+                let t = shutter.0 + (shutter.1 - shutter.0) * i as f32 / 1000.0;
+                let w = m.at(t).point(c);
+                assert!(
+                    (w - Vec3::splat(r)).cmpge(lo).all() && (w + Vec3::splat(r)).cmple(hi).all(),
+                    "{shutter:?} at {t}: {w} outside {lo}..{hi}"
+                );
+            }
+            let far = m.at(shutter.1).point(c).x + r + 0.5;
+            assert!(
+                hi.x < far.max(1.0),
+                "{shutter:?}: reaches {} (the last key's 1000)",
+                hi.x
+            );
         }
     }
 }

@@ -165,6 +165,12 @@ impl TryFrom<CameraRaw> for CameraDesc {
                 "camera shutter must be (open, close) with finite open ≤ close, got ({open}, {close})"
             ));
         }
+        if !(close - open).is_finite() {
+            return Err(format!(
+                "camera shutter ({open}, {close}) is longer than f32 holds (close − open \
+                 overflows, and sample times would all fall at one end): shorten it"
+            ));
+        }
         Ok(CameraDesc {
             eye: c.eye,
             target: c.target,
@@ -693,6 +699,17 @@ impl TryFrom<MotionRaw> for MotionDesc {
         if let Some(w) = m.keys.windows(2).find(|w| !(w[0].time < w[1].time)) {
             return Err(format!(
                 "motion key times must increase strictly, got {} then {}",
+                w[0].time, w[1].time
+            ));
+        }
+        if let Some(w) = m
+            .keys
+            .windows(2)
+            .find(|w| !(w[1].time - w[0].time).is_finite())
+        {
+            return Err(format!(
+                "motion keys at times {} and {} are farther apart than f32 holds (their \
+                 difference overflows, and the motion between them could not be interpolated)",
                 w[0].time, w[1].time
             ));
         }

@@ -285,14 +285,24 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
             map: Some(std::sync::Arc::new(map)),
         });
     }
-    let mut scene = Scene::new(
-        camera,
-        Accel::with_motion(shapes, motions),
-        materials,
-        material_names,
-        textures,
-        lights,
-    );
+    let shutter = camera.shutter;
+    let accel = Accel::with_motion(shapes, motions, shutter);
+    // Moving shapes reach where their motion takes them while the shutter is open.
+    let (lo, hi) = accel.bounds();
+    let reach = lo.abs().max(hi.abs()).max_element() as f64;
+    if !(reach <= MAX_EXTENT) {
+        return Err(SceneError::at(
+            path,
+            text,
+            "motion:",
+            format!(
+                "while the shutter is open, moving shapes reach {reach:.3e} from the scene's \
+                 centre; render space is f32, whose triangle areas and squared distances \
+                 overflow beyond about {MAX_EXTENT:e}: keep the motion's translations within it"
+            ),
+        ));
+    }
+    let mut scene = Scene::new(camera, accel, materials, material_names, textures, lights);
     scene.origin = origin;
     scene.inputs = inputs;
     scene.warnings.extend(features.warning(path));
