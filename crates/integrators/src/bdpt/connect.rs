@@ -11,7 +11,9 @@ use lightlab_samplers::{Independent, Sampler};
 use lightlab_scene::Scene;
 
 /// The class of the path strategy (s, t) joins, light first (for s = 0 the last camera vertex is
-/// the emitter, not a scattering vertex).
+/// the emitter, not a scattering vertex). A connection vertex is named by its own class (the
+/// connection evaluates its BSDF's non-delta part); the vertices before it as the walk left them
+/// (plastic's coating an `S`), which only the class arriving at the next vertex records.
 pub(crate) fn joined_class(
     light: &[PathVertex],
     camera: &[PathVertex],
@@ -19,7 +21,7 @@ pub(crate) fn joined_class(
     t: usize,
 ) -> PathClass {
     match s {
-        0 if t >= 2 => camera[t - 2].class.reversed(),
+        0 if t >= 2 => camera[t - 1].arrival_class().reversed(),
         0 => PathClass::EMPTY,
         _ => light[s - 1].class.then(camera[t - 1].class.reversed()),
     }

@@ -56,6 +56,20 @@ impl PathClass {
         out
     }
 
+    /// This class without its last vertex; unchanged if empty.
+    #[inline]
+    pub fn without_last(self) -> PathClass {
+        let len = self.len.saturating_sub(1);
+        let mut out = PathClass {
+            bits: self.bits,
+            len,
+        };
+        if len < MAX_RECORDED {
+            out.bits &= (1u64 << (2 * len)) - 1;
+        }
+        out
+    }
+
     /// Number of scattering vertices.
     #[inline]
     pub fn len(&self) -> u32 {

@@ -613,7 +613,7 @@ impl Vcm {
                     pass.merge_scale,
                     bounces,
                     |m| {
-                        let class = m.light.class.then(camera[t - 2].class.reversed());
+                        let class = m.light.class.then(camera[t - 1].arrival_class().reversed());
                         if let Some(layer) = self.router.route(&class) {
                             let logged = Logged {
                                 s: m.light_path.len(),

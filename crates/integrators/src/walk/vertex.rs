@@ -88,6 +88,17 @@ impl PathVertex {
         }
     }
 
+    /// The classes of the scattering vertices before this one as the walk left them (plastic's
+    /// coating an `S` where it left by the coating, which `class` records only from the next
+    /// vertex on): the class of a path that ends here on an emitter, or merges here.
+    pub fn arrival_class(&self) -> PathClass {
+        match self.kind {
+            Kind::Surface => self.class.without_last(),
+            // A light's origin has none; an escaped camera subpath's end records its arrival.
+            Kind::Camera | Kind::Light { .. } => self.class,
+        }
+    }
+
     pub fn on_surface(&self) -> bool {
         self.ng != Vec3::ZERO && !self.infinite
     }
