@@ -24,7 +24,9 @@ pub struct RenderArgs {
     integrator: Option<String>,
     /// Samples per pixel (≥ 1): camera paths per pixel, light paths per pixel for light tracing,
     /// passes for progressive photon mapping, camera samples of the solution for radiosity
-    /// (ignored by cone tracing: one cone per pixel). Default: a Mitsuba file's sample_count, else 16.
+    /// (ignored by cone tracing: one cone per pixel). With motion blur, `PhotonMap` and `Radiosity`
+    /// solve the scene anew at each sample's instant and `Cone` traces a cone per instant, so their
+    /// cost grows with it (README, "Motion blur"). Default: a Mitsuba file's sample_count, else 16.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..), conflicts_with = "seconds")]
     spp: Option<u32>,
     /// Render for this many wall-clock seconds instead of a sample count: samples continue until
