@@ -4,7 +4,7 @@
 //!
 //! False-failure rate: the z-tests of this file are Šidák-corrected to ≤ 1e-3 together; fixed seeds.
 
-use lightlab_integrators::RenderOutput;
+use lightlab_integrators::{IntegratorConfig, RenderOutput};
 use lightlab_testkit::stats::{sidak, t_critical, z_critical};
 use lightlab_tests::{
     across_seeds, caustic_sphere, cornell, furnace, image_mean, render, scene, z,
@@ -279,4 +279,50 @@ fn plastic_coating_reflections_are_specular_in_every_method() {
             }
         }
     }
+}
+
+/// Path tracing finds a point light only by next-event estimation, which no specular vertex
+/// passes: the point light's caustic `LS+DE` is black in its image (light tracing's is not), and
+/// it says so before rendering, while it says nothing where it misses nothing (no specular
+/// surface, or only area lights) and BDPT never says it. Deterministic checks: no false failures.
+#[test]
+fn path_tracing_warns_that_it_misses_point_light_caustics() {
+    // The area light switched off: the point light is the only one.
+    let text = caustic_sphere((16, 16))
+        .replace("emission: (radiance: (50, 50, 50)),", "")
+        .replace(
+            "    ],\n)",
+            "    ],\n    lights: [Point(position: (0, 0.5, -0.3), intensity: (2, 2, 2))],\n)",
+        );
+    assert!(text.contains("Point("));
+    let sc = scene(&text);
+    let warnings = |config: &str, sc: &lightlab_scene::Scene| {
+        IntegratorConfig::from_ron(config)
+            .unwrap()
+            .build()
+            .unwrap()
+            .scene_warnings(sc)
+    };
+    let said = warnings("Path()", &sc);
+    assert!(said.len() == 1 && said[0].contains("L S+"), "{said:?}");
+    assert!(warnings("Path(strategy: LightOnly)", &sc).len() == 1);
+    assert!(warnings("Bdpt()", &sc).is_empty());
+    assert!(warnings("Path()", &caustic(8)).is_empty());
+    let matte = scene(&text.replace(
+        "\"glass\": Dielectric(ior: 1.5)",
+        "\"glass\": Diffuse(albedo: (0.5, 0.5, 0.5))",
+    ));
+    assert!(warnings("Path()", &matte).is_empty());
+    // What it warns of: the caustic is black for the path tracer only.
+    let caustic_of = |config: &str| {
+        let out = render(
+            &sc,
+            &format!("{config}(max_bounces: 4, paths: \"LS+DE\")"),
+            64,
+            5,
+        );
+        image_mean(&out.film).0
+    };
+    assert_eq!(caustic_of("Path"), [0.0; 3]);
+    assert!(caustic_of("Light").iter().all(|&c| c > 0.0));
 }

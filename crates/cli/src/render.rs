@@ -128,6 +128,9 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
     let integrator = config.build()?;
     lightlab_integrators::memory::check_render(&*integrator, &scene)
         .map_err(|e| format!("{}: {e}", args.source.scene.display()))?;
+    for w in integrator.scene_warnings(&scene) {
+        eprintln!("warning: {w}");
+    }
     let bar = Bar::new("render", Unit::Percent);
     crate::interrupt::on_interrupt(|| {
         "interrupted: nothing was written (the EXR, PNG and JSON are written, atomically, when \

@@ -381,6 +381,9 @@ pub fn run_experiment(
         let integrator = config.build().map_err(|e| e.to_string())?;
         lightlab_integrators::memory::check_render(&*integrator, scene)
             .map_err(|e| format!("{} / {}: {e}", run.scene_name, run.method))?;
+        for w in integrator.scene_warnings(scene) {
+            warnings.push(format!("{} / {}: {w}", run.scene_name, run.method));
+        }
         let out = integrator.render(scene, &run.budget.into(), run.seed, per_run);
         let layers = output_layers(&out);
         let e = errors(&layers[0].pixels, &reference.image)

@@ -126,6 +126,12 @@ pub trait Integrator: Send + Sync {
         Ok(())
     }
 
+    /// What the integrator, as configured, leaves out of `scene`'s image although it renders it
+    /// (said before a render, as the scene's own warnings are).
+    fn scene_warnings(&self, _scene: &Scene) -> Vec<String> {
+        Vec::new()
+    }
+
     /// Renders `scene` within `budget`. A time budget continues the sample sequence until the
     /// time is spent (the same estimator as the sample budget it reaches); with a sampler that
     /// needs its sample count up front, a calibrated pilot (renders of 1, 2, 4, … samples per

@@ -241,6 +241,25 @@ impl Integrator for PathTracer {
         }
         Ok(())
     }
+
+    fn scene_warnings(&self, scene: &Scene) -> Vec<String> {
+        let delta_lights = scene.lights.iter().filter(|l| l.is_delta()).count();
+        let specular = scene
+            .materials
+            .iter()
+            .any(|m| m.bsdf.is_delta() || m.bsdf.mixes_delta());
+        if self.samples_lights() && delta_lights > 0 && specular {
+            vec![format!(
+                "path tracing reaches the scene's {delta_lights} point, spot or directional \
+                 light(s) only by next-event estimation, which cannot pass its specular surfaces \
+                 (mirrors, smooth glass, plastic's coating): paths L S+ … from those lights (their \
+                 caustics, their images in mirrors) are missing from the image; Light, Bdpt, Vcm \
+                 and the photon methods render them"
+            )]
+        } else {
+            Vec::new()
+        }
+    }
 }
 
 impl SampledRender for PathTracer {
