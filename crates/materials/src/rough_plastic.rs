@@ -76,14 +76,7 @@ impl Coating {
             let mu = (k as f32 / (TABLE - 1) as f32).max(1e-6);
             *t = albedo(&microfacet, mu, eta, true);
         }
-        // Midpoint rule over μ for 2 ∫ R_int(μ) μ dμ.
-        let fdr_int = (0..TABLE)
-            .map(|j| {
-                let mu = (j as f32 + 0.5) / TABLE as f32;
-                2.0 * f64::from(albedo(&microfacet, mu, 1.0 / eta, false)) * f64::from(mu)
-            })
-            .sum::<f64>()
-            / TABLE as f64;
+        let fdr_int = internal_diffuse_reflectance(&microfacet, eta);
         let c: &'static Coating = Box::leak(Box::new(Coating {
             distribution,
             alpha,
@@ -103,6 +96,37 @@ impl Coating {
         let (a, b) = (self.transmittance[i], self.transmittance[i + 1]);
         a + (b - a) * (x - i as f32)
     }
+}
+
+/// F_dr,int = 2 ∫₀¹ R_int(μ) μ dμ, R_int the coating's reflectance from inside (relative index
+/// 1/η). Total internal reflection begins at μ_c = √(1 − 1/η²), where R_int has a square-root
+/// kink for a smooth coating (infinite slope: a 64-point midpoint rule over μ overestimated
+/// F_dr,int by 2·10⁻³ at η = 1.5, and the base's light by 0.5 %). So each side of μ_c is integrated
+/// in s with μ = μ_c ± (distance to the end)·s², which makes the kink smooth, by the midpoint rule.
+fn internal_diffuse_reflectance(microfacet: &Microfacet, eta: f32) -> f64 {
+    let eta = f64::from(eta);
+    let mu_c = if eta > 1.0 {
+        (1.0 - 1.0 / (eta * eta)).sqrt()
+    } else {
+        0.0
+    };
+    // ∫ over [mu_c − a, mu_c] (a = mu_c, below) or [mu_c, mu_c + a] (a = 1 − mu_c, above).
+    let side = |a: f64, below: bool| {
+        (0..TABLE)
+            .map(|j| {
+                let s = (j as f64 + 0.5) / TABLE as f64;
+                let mu = if below {
+                    mu_c - a * s * s
+                } else {
+                    mu_c + a * s * s
+                };
+                let r = albedo(microfacet, mu as f32, (1.0 / eta) as f32, false);
+                2.0 * f64::from(r) * mu * 2.0 * a * s
+            })
+            .sum::<f64>()
+            / TABLE as f64
+    };
+    side(mu_c, true) + side(1.0 - mu_c, false)
 }
 
 /// Single-scattering albedo of the interface of relative index `eta` from direction cos θ = `mu`
@@ -315,5 +339,18 @@ mod tests {
             a,
             Coating::of(Distribution::Beckmann, 0.2, 1.4)
         ));
+    }
+
+    /// A nearly smooth coating reflects from inside what a smooth interface does: F_dr,int equals
+    /// the exact F_dr(1/η) (`fresnel::diffuse_reflectance`). The midpoint rule over μ missed the
+    /// kink at the critical angle by 2·10⁻³ at η = 1.5, which made RoughPlastic at α → 0 reflect
+    /// 0.5 % more of its base's light than Plastic (a furnace of it gained energy).
+    #[test]
+    fn smooth_coating_reflects_from_inside_as_fresnel_says() {
+        for eta in [1.5f32, 4.0, 1.0 / 1.5, 1.05] {
+            let got = Coating::of(Distribution::Ggx, 1e-4, eta).fdr_int;
+            let want = fresnel::diffuse_reflectance(1.0 / eta);
+            assert!((got - want).abs() < 3e-4, "η = {eta}: {got} against {want}");
+        }
     }
 }
