@@ -43,10 +43,16 @@ impl Phong {
         }
     }
 
-    /// cosⁿα for a reflection pair, 0 otherwise; symmetric in its arguments.
+    /// cosⁿα for a reflection pair, 0 otherwise (also for n = 0, where 0⁰ = 1 would spread the
+    /// lobe over directions its sampling never reaches, cos α ≤ 0); symmetric in its arguments.
     #[inline]
     fn cos_alpha_pow(&self, wo: Vec3, wi: Vec3) -> f32 {
-        mirror(wo).dot(wi).max(0.0).powf(self.exponent)
+        let cos_alpha = mirror(wo).dot(wi);
+        if cos_alpha > 0.0 {
+            cos_alpha.powf(self.exponent)
+        } else {
+            0.0
+        }
     }
 
     /// Mixture density of the sampling strategy for a reflection pair.

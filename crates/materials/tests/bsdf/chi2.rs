@@ -9,7 +9,7 @@
 //! Two charts:
 //!
 //! - **Sphere** ([`Domain::Sphere`], 41 × 80 equal-area cells over all directions) for lobes wider
-//!   than a cell: Diffuse, Plastic (its base), RoughPlastic, Phong with exponents 1 and 20, GGX with α from 0.05 to 1 and anisotropic
+//!   than a cell: Diffuse, Plastic (its base), RoughPlastic, Phong with exponents 0, 1 and 20, GGX with α from 0.05 to 1 and anisotropic
 //!   α = (0.1, 0.6), Beckmann with α = 0.3 and (0.1, 0.6). The horizon lies in the middle of a row, on an edge of the integration
 //!   sub-grid, so the jump from reflection to transmission is integrated exactly.
 //! - **Window** ([`DirectionWindow`] on [`Domain::Square`]) for near-specular lobes (GGX with
@@ -541,9 +541,11 @@ fn chi2_rough_plastic() {
 
 // ---- Phong --------------------------------------------------------------------------------
 
-/// 12 runs: exponents 1 and 20, both sides.
+/// 18 runs: exponents 0 (the cos⁰ lobe is a cosine-weighted hemisphere about the mirror direction,
+/// which `eval` once spread over the whole hemisphere of `wo`: 0⁰ = 1), 1 and 20, both sides.
 #[test]
 fn chi2_phong_low_exponents() {
+    sphere_cases("phong_n0", phong(0.0), &wos_both_sides(), 4790);
     sphere_cases("phong_n1", phong(1.0), &wos_both_sides(), 4800);
     sphere_cases("phong_n20", phong(20.0), &wos_both_sides(), 4810);
 }
