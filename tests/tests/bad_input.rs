@@ -109,7 +109,7 @@ fn ior_not_positive() {
     assert_error(
         "materials: { \"g\": RoughDielectric(roughness: Isotropic(0.1), ior: 1) },",
         3,
-        &["ior", "≠ 1"],
+        &["ior", "differ from 1"],
     );
     assert_error(
         "materials: { \"p\": Plastic(kd: (0.5, 0.5, 0.5), ior: 0) },",
@@ -119,7 +119,7 @@ fn ior_not_positive() {
     assert_error(
         "materials: { \"p\": RoughPlastic(kd: (0.5, 0.5, 0.5), roughness: Isotropic(0.2), ior: 1) },",
         3,
-        &["RoughPlastic ior", "≠ 1"],
+        &["RoughPlastic ior", "differ from 1"],
     );
 }
 
@@ -298,6 +298,37 @@ fn other_impossible_values() {
     assert!(e.contains("emission radiance must be at most 1e15"), "{e}");
 }
 
+/// Material parameters at which f32 loses the material's light without a word: a rough
+/// interface within 10⁻⁴ of index matching, a RoughPlastic coating whose 1/η² overflows, a Phong
+/// lobe narrower than f32 directions resolve.
+#[test]
+fn materials_beyond_f32() {
+    for (material, words) in [
+        (
+            "RoughDielectric(roughness: Isotropic(1), ior: 1.0000001)",
+            "RoughDielectric ior must differ from 1 by at least 1e-4",
+        ),
+        (
+            "RoughPlastic(kd: (0.5, 0.5, 0.5), roughness: Isotropic(0.1), ior: 0.99999)",
+            "RoughPlastic ior must differ from 1",
+        ),
+        (
+            "RoughPlastic(kd: (0.5, 0.5, 0.5), roughness: Isotropic(0.1), ior: 1e-19)",
+            "RoughPlastic ior must be ≥ 1e-18",
+        ),
+        (
+            "Phong(kd: (0, 0, 0), ks: (1, 1, 1), exponent: 1e9)",
+            "Phong exponent must be in [0, 1e7]",
+        ),
+    ] {
+        let e = error_of(&format!("{LIGHT}\nmaterials: {{ \"m\": {material} }},"));
+        assert!(
+            e.starts_with("scenes/bad.ron:4:") && e.contains(words),
+            "{e}"
+        );
+    }
+}
+
 #[test]
 fn bad_camera() {
     let bad = |cam: &str| {
@@ -343,6 +374,28 @@ fn bad_camera() {
         "{e}"
     );
     assert!(bad("camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), up: (0, 0, 1), fov: 40, resolution: (8, 8))").contains("parallel"));
+    // Extremes f32 cannot carry, which rendered wrong without a word: a subnormal field of view
+    // (BDPT −5.6 %), a lens whose area underflows (light tracing lost 98 %), a plane of focus
+    // farther than any shape can be.
+    for (camera, words) in [
+        ("fov: 1e-44", "fov must be in [1e-6, 180)"),
+        (
+            "fov: 40, lens: ThinLens(aperture_radius: 1e-19, focus_distance: 1)",
+            "aperture_radius must be ≥ 1e-15",
+        ),
+        (
+            "fov: 40, lens: ThinLens(aperture_radius: 0.1, focus_distance: 1e30)",
+            "focus_distance must be in (0, 1e20]",
+        ),
+    ] {
+        let e = bad(&format!(
+            "camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), resolution: (8, 8), {camera})"
+        ));
+        assert!(
+            e.starts_with("scenes/bad.ron:2:") && e.contains(words),
+            "{e}"
+        );
+    }
     let e = bad(
         "camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (8, 8), lens: ThinLens(aperture_radius: 0, focus_distance: 1))",
     );

@@ -121,11 +121,16 @@ impl Camera {
                 aperture_radius,
                 focus_distance,
             } => {
-                // The point on the plane of focus that the pinhole ray reaches; all lens rays meet there.
-                let focus = self.eye + dir * focus_distance;
+                // All lens rays meet where the pinhole ray reaches the plane of focus, at
+                // eye + F·dir: from the lens point eye + l that is F·(dir − l/F), normalised
+                // without forming F·dir, whose square overflowed f32 beyond F ≈ 10¹⁹ (the ray
+                // came out zero and hit nothing).
                 let l = aperture_radius * square_to_concentric_disk(u_lens);
-                let o = self.eye + self.right * l.x + self.up * l.y;
-                Ray::new(o, (focus - o).normalize())
+                let offset = self.right * l.x + self.up * l.y;
+                Ray::new(
+                    self.eye + offset,
+                    (dir - offset / focus_distance).normalize(),
+                )
             }
         }
     }

@@ -107,8 +107,8 @@ pub enum Lens {
     /// An ideal pinhole: everything in focus.
     #[default]
     Pinhole,
-    /// A thin lens (Kolb et al. 1995; pbrt-v4 §5.2.3): rays leave a disk of `aperture_radius` (> 0)
-    /// and meet on the plane at `focus_distance` (> 0) along the view direction.
+    /// A thin lens (Kolb et al. 1995; pbrt-v4 §5.2.3): rays leave a disk of `aperture_radius`
+    /// (≥ 10⁻¹⁵) and meet on the plane at `focus_distance` (in (0, 10²⁰]) along the view direction.
     ThinLens {
         aperture_radius: f32,
         focus_distance: f32,
@@ -128,9 +128,11 @@ impl TryFrom<CameraRaw> for CameraDesc {
         if view.normalize().cross(c.up.normalize_or_zero()).length() < 1e-6 {
             return Err("camera up is zero or parallel to the view direction".into());
         }
-        if !(c.fov > 0.0 && c.fov < 180.0) {
+        if !(c.fov >= MIN_FOV && c.fov < 180.0) {
             return Err(format!(
-                "camera fov must be in (0, 180) degrees, got {}",
+                "camera fov must be in [{MIN_FOV:e}, 180) degrees (narrower, the image plane's \
+                 area 4·tan²(fov/2) that light tracing's importance divides by is not a normal \
+                 f32), got {}",
                 c.fov
             ));
         }
@@ -148,14 +150,18 @@ impl TryFrom<CameraRaw> for CameraDesc {
             focus_distance,
         } = c.lens
         {
-            if !(aperture_radius > 0.0 && aperture_radius.is_finite()) {
+            if !(aperture_radius >= MIN_APERTURE && aperture_radius.is_finite()) {
                 return Err(format!(
-                    "ThinLens aperture_radius must be > 0, got {aperture_radius} (use Pinhole for 0)"
+                    "ThinLens aperture_radius must be ≥ {MIN_APERTURE:e} (smaller, the lens area \
+                     underflows f32 and light tracing's connections to the lens are lost), got \
+                     {aperture_radius}: use Pinhole for a pinhole"
                 ));
             }
-            if !(focus_distance > 0.0 && focus_distance.is_finite()) {
+            if !(focus_distance > 0.0 && focus_distance <= MAX_FOCUS) {
                 return Err(format!(
-                    "ThinLens focus_distance must be > 0, got {focus_distance}"
+                    "ThinLens focus_distance must be in (0, {MAX_FOCUS:e}] (shapes reach at most \
+                     1e9 from the scene's centre, so a plane of focus farther than that is focus \
+                     at infinity already), got {focus_distance}"
                 ));
             }
         }
@@ -232,7 +238,8 @@ pub enum MaterialRaw {
         distribution: Microfacets,
     },
     /// Rough glass: microfacet reflection and transmission (Walter et al. 2007). `ior` as for
-    /// `Dielectric`, > 0; default 1.5. `distribution` as for `RoughConductor`.
+    /// `Dielectric`, > 0 and at least 10⁻⁴ from 1; default 1.5. `distribution` as for
+    /// `RoughConductor`.
     RoughDielectric {
         roughness: Roughness,
         #[serde(default = "glass_ior")]
@@ -241,7 +248,8 @@ pub enum MaterialRaw {
         distribution: Microfacets,
     },
     /// Modified Phong (Lafortune and Willems 1994): diffuse `kd` plus a normalised cosⁿ lobe `ks` around
-    /// the mirror direction, `exponent` n ≥ 0. Energy conservation requires kd + ks ≤ 1 per channel.
+    /// the mirror direction, `exponent` n in [0, 10⁷]. Energy conservation requires kd + ks ≤ 1 per
+    /// channel.
     Phong {
         kd: ColourDesc,
         ks: ColourDesc,
@@ -264,7 +272,8 @@ pub enum MaterialRaw {
     /// Rough plastic (Mitsuba 3's `roughplastic`): `Plastic` with a rough coating, whose
     /// microfacets have `roughness` `Isotropic(α)` (the coating's transmittance is tabulated over
     /// the polar angle alone, so anisotropic roughness is refused) and `distribution` as for
-    /// `RoughConductor`. `ior` > 0 and ≠ 1, default 1.5; `kd`, `ks`, `nonlinear` as for `Plastic`.
+    /// `RoughConductor`. `ior` ≥ 10⁻¹⁸ and at least 10⁻⁴ from 1, default 1.5; `kd`, `ks`,
+    /// `nonlinear` as for `Plastic`.
     /// Two-sided.
     RoughPlastic {
         kd: ColourDesc,
@@ -487,14 +496,7 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
             MaterialRaw::RoughDielectric { roughness, ior, .. } => {
                 check_roughness(*roughness)?;
                 positive("RoughDielectric ior", *ior)?;
-                if *ior == 1.0 {
-                    return Err(
-                        "RoughDielectric ior must differ from 1: an index-matched rough interface \
-                                has no microfacet refraction (GGX transmission degenerates); \
-                                use ior > 0 and ≠ 1"
-                            .into(),
-                    );
-                }
+                near_one_ior("RoughDielectric", *ior)?;
             }
             MaterialRaw::Plastic { kd, ks, ior, .. } => {
                 unit_colour("Plastic kd", kd)?;
@@ -518,12 +520,12 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
                     ));
                 }
                 positive("RoughPlastic ior", *ior)?;
-                if *ior == 1.0 {
-                    return Err(
-                        "RoughPlastic ior must differ from 1: an index-matched rough \
-                                coating has no microfacet refraction; use ior > 0 and ≠ 1"
-                            .into(),
-                    );
+                near_one_ior("RoughPlastic", *ior)?;
+                if *ior < 1e-18 {
+                    return Err(format!(
+                        "RoughPlastic ior must be ≥ 1e-18: below, the coating's 1/η² overflows \
+                         f32 and the base would render black; got {ior}"
+                    ));
                 }
             }
             MaterialRaw::Phong { kd, ks, exponent } => {
@@ -539,8 +541,12 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
                         fmt_rgb(ks)
                     ));
                 }
-                if !(*exponent >= 0.0 && exponent.is_finite()) {
-                    return Err(format!("Phong exponent must be ≥ 0, got {exponent}"));
+                if !(*exponent >= 0.0 && *exponent <= MAX_PHONG_EXPONENT) {
+                    return Err(format!(
+                        "Phong exponent must be in [0, {MAX_PHONG_EXPONENT:e}] (beyond, the lobe \
+                         is narrower than f32 directions resolve and its light is lost: use Mirror \
+                         or Conductor for a mirror), got {exponent}"
+                    ));
                 }
             }
         }
@@ -549,6 +555,36 @@ impl TryFrom<MaterialRaw> for MaterialDesc {
             one_sided: false,
         })
     }
+}
+
+/// The narrowest field of view, in degrees: 4·tan²(fov/2) = 7.6·10⁻¹⁷, a normal f32 (at 10⁻⁴⁴°
+/// tan(fov/2) was 0 and BDPT's camera densities divided by it, −5.6 % without a warning).
+const MIN_FOV: f32 = 1e-6;
+
+/// The smallest thin-lens aperture radius: π r² stays far from f32's underflow (at 10⁻¹⁹ light
+/// tracing lost 98 % of its connections to the lens, silently).
+const MIN_APERTURE: f32 = 1e-15;
+
+/// The farthest plane of focus.
+const MAX_FOCUS: f32 = 1e20;
+
+/// The largest Phong exponent: at 10⁷ a sphere's albedo is still the converged one; from about
+/// 10⁹ on, a sampled direction's round trip through the shading frame moves cos α by 10⁻⁷ and
+/// cosⁿα underflows, so the specular lobe is silently lost.
+const MAX_PHONG_EXPONENT: f32 = 1e7;
+
+/// A rough interface's index must differ from 1 by at least 10⁻⁴: nearer, the half vector
+/// wo·ηo + wi·ηi cancels in f32 and refracted light is lost (−14 % of a sphere's albedo at
+/// 1.0000001 and α = 1; correct at 1.0001). An index-matched interface has no microfacet
+/// refraction at all.
+fn near_one_ior(what: &str, ior: f32) -> Result<(), String> {
+    if (ior - 1.0).abs() < 1e-4 {
+        return Err(format!(
+            "{what} ior must differ from 1 by at least 1e-4 (an index-matched rough interface \
+             does not refract, and nearer to 1 f32 cannot resolve its half vectors), got {ior}"
+        ));
+    }
+    Ok(())
 }
 
 /// η ≥ 0 and k ≥ 0 per channel, not both zero (η = 0 with k > 0 is a lossless reflector, R = 1).
