@@ -453,6 +453,25 @@ fn settings_that_cannot_render_the_scene_are_refused() {
         let integrator = IntegratorConfig::from_ron(ok).unwrap().build().unwrap();
         assert!(integrator.check_scene(&scene).is_ok(), "{ok}");
     }
+    // Stratified and Latin hypercube samples are strata of an f32 in [0, 1): past 2²⁴ of them
+    // they overlapped and the top one reached 1.0, silently.
+    use lightlab_integrators::Budget;
+    let many = Budget::Samples((1 << 24) + 1);
+    for sampler in ["Stratified", "LatinHypercube"] {
+        let integrator = IntegratorConfig::from_ron(&format!("Path(sampler: {sampler})"))
+            .unwrap()
+            .build()
+            .unwrap();
+        let e = integrator.check_budget(&many).unwrap_err();
+        assert!(e.contains(sampler) && e.contains("16777216"), "{e}");
+        assert!(integrator.check_budget(&Budget::Samples(1 << 24)).is_ok());
+        assert_eq!(integrator.best_sample_count(u32::MAX), 1 << 24);
+    }
+    let sobol = IntegratorConfig::from_ron("Path(sampler: Sobol)")
+        .unwrap()
+        .build()
+        .unwrap();
+    assert!(sobol.check_budget(&many).is_ok());
 }
 
 /// Messages are plain: values as the file writes them, not Rust's debug text.

@@ -203,8 +203,12 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         );
         for (label, config, spp) in &integrators {
             let integrator = config.build()?;
-            lightlab_integrators::memory::check_render(&*integrator, &scene)
-                .map_err(|e| format!("{}: {e}", path.display()))?;
+            lightlab_integrators::memory::check_render(
+                &*integrator,
+                &scene,
+                &Budget::Samples(*spp),
+            )
+            .map_err(|e| format!("{}: {e}", path.display()))?;
             for &threads in &args.threads {
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)

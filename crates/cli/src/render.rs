@@ -126,7 +126,7 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let integrator = config.build()?;
-    lightlab_integrators::memory::check_render(&*integrator, &scene)
+    lightlab_integrators::memory::check_render(&*integrator, &scene, &budget)
         .map_err(|e| format!("{}: {e}", args.source.scene.display()))?;
     for w in integrator.scene_warnings(&scene) {
         eprintln!("warning: {w}");

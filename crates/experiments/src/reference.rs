@@ -119,8 +119,12 @@ pub fn reference(
                 let integrator = config
                     .build()
                     .map_err(|e| format!("reference integrator {}: {e}", config.to_ron()))?;
-                lightlab_integrators::memory::check_render(&*integrator, scene)
-                    .map_err(|e| format!("reference integrator {}: {e}", config.to_ron()))?;
+                lightlab_integrators::memory::check_render(
+                    &*integrator,
+                    scene,
+                    &Budget::Samples(*spp),
+                )
+                .map_err(|e| format!("reference integrator {}: {e}", config.to_ron()))?;
                 let out =
                     integrator.render(scene, &Budget::Samples(*spp), REFERENCE_SEED, progress);
                 write_exr(&path, w, h, &output_layers(&out)).map_err(|e| e.to_string())?;

@@ -379,7 +379,7 @@ pub fn run_experiment(
             .and_then(|c| c.with_paths_and_layers(None, class_layers(&desc.classes)))
             .map_err(|e| e.to_string())?;
         let integrator = config.build().map_err(|e| e.to_string())?;
-        lightlab_integrators::memory::check_render(&*integrator, scene)
+        lightlab_integrators::memory::check_render(&*integrator, scene, &run.budget.into())
             .map_err(|e| format!("{} / {}: {e}", run.scene_name, run.method))?;
         for w in integrator.scene_warnings(scene) {
             warnings.push(format!("{} / {}: {w}", run.scene_name, run.method));

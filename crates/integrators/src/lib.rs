@@ -126,6 +126,18 @@ pub trait Integrator: Send + Sync {
         Ok(())
     }
 
+    /// Whether the sampler can take `budget`'s samples per pixel (an error says why not).
+    fn check_budget(&self, budget: &Budget) -> Result<(), String> {
+        match (budget, self.sampler()) {
+            (Budget::Samples(n), Some(s)) if *n > s.max_samples() => Err(format!(
+                "the {s:?} sampler takes at most {} samples per pixel (f32 separates no more \
+                 strata of [0, 1)), got {n}: use Independent, Halton or Sobol",
+                s.max_samples()
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// What the integrator, as configured, leaves out of `scene`'s image although it renders it
     /// (said before a render, as the scene's own warnings are).
     fn scene_warnings(&self, _scene: &Scene) -> Vec<String> {

@@ -3,13 +3,19 @@
 //! is refused with an error that says what to lower, instead of ending in the kernel's
 //! out-of-memory kill halfway.
 
-use crate::Integrator;
+use crate::{Budget, Integrator};
 use lightlab_scene::Scene;
 
 /// What a render needs checked before it starts: that `integrator` can render `scene`
-/// ([`Integrator::check_scene`]) and that the machine can hold it ([`check`]).
-pub fn check_render(integrator: &dyn Integrator, scene: &Scene) -> Result<(), String> {
+/// ([`Integrator::check_scene`]) within `budget` ([`Integrator::check_budget`]) and that the
+/// machine can hold it ([`check`]).
+pub fn check_render(
+    integrator: &dyn Integrator,
+    scene: &Scene,
+    budget: &Budget,
+) -> Result<(), String> {
     integrator.check_scene(scene)?;
+    integrator.check_budget(budget)?;
     check(integrator, scene)
 }
 

@@ -67,10 +67,22 @@ impl SamplerConfig {
         )
     }
 
+    /// The most samples per pixel the sampler takes: `Stratified` and `LatinHypercube` put sample i
+    /// of n in the i-th of n strata of [0, 1) as an f32, which separates at most 2²⁴ of them (more,
+    /// and strata overlap and the top one reaches 1.0); the others have no limit.
+    pub fn max_samples(&self) -> u32 {
+        if self.needs_sample_count() {
+            1 << 24
+        } else {
+            u32::MAX
+        }
+    }
+
     /// The sample count at most `n` (and at least 1) this sampler stratifies best: for
     /// `Stratified`, the largest whose 2D pairs get a proper nx × ny grid rather than the N-rooks
     /// fallback (a prime or elongated count); `n` itself for the others.
     pub fn best_count_up_to(&self, n: u32) -> u32 {
+        let n = n.min(self.max_samples());
         match self {
             SamplerConfig::Stratified => (1..=n.max(1))
                 .rev()
