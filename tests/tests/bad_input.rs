@@ -374,6 +374,17 @@ fn bad_camera() {
         "{e}"
     );
     assert!(bad("camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), up: (0, 0, 1), fov: 40, resolution: (8, 8))").contains("parallel"));
+    // An up vector is a direction: its length does not matter, however far from 1.
+    for up in ["(0, 1e-30, 0)", "(0, 3e38, 3e38)"] {
+        let text = format!(
+            "Scene(\ncamera: Camera(eye: (0, 0, 3), target: (0, 0, 0), up: {up}, fov: 40, resolution: (8, 8)),\n{LIGHT}\n)"
+        );
+        let sc = parse_scene(&text, Path::new("scenes/up.ron")).unwrap();
+        assert!(
+            sc.camera.right.is_finite() && sc.camera.up.is_finite(),
+            "{up}"
+        );
+    }
     // Extremes f32 cannot carry, which rendered wrong without a word: a subnormal field of view
     // (BDPT −5.6 %), a lens whose area underflows (light tracing lost 98 %), a plane of focus
     // farther than any shape can be.

@@ -42,7 +42,10 @@ impl Camera {
     /// The camera of `d` in render space: positions moved by −`origin` (see `load`).
     pub fn new(d: &CameraDesc, origin: glam::DVec3) -> Camera {
         let forward = (d.target - d.eye).normalize().as_vec3();
-        let right = forward.cross(d.up).normalize();
+        // `up` normalised in f64 first: its f32 squared length may under- or overflow.
+        let right = forward
+            .cross(d.up.as_dvec3().normalize().as_vec3())
+            .normalize();
         let up = right.cross(forward);
         // A mirrored image: pixels to the right look to the left.
         let right = if d.mirrored { -right } else { right };

@@ -125,7 +125,10 @@ impl TryFrom<CameraRaw> for CameraDesc {
         if view.length_squared() == 0.0 || !view.is_finite() {
             return Err("camera eye and target coincide: the view direction is undefined".into());
         }
-        if view.normalize().cross(c.up.normalize_or_zero()).length() < 1e-6 {
+        // In f64: an up vector of (0, 1e-30, 0) or (0, 3e38, 3e38) under- or overflows f32's
+        // squared length and was called zero or parallel.
+        let up = c.up.as_dvec3().normalize_or_zero();
+        if view.as_dvec3().normalize().cross(up).length() < 1e-6 {
             return Err("camera up is zero or parallel to the view direction".into());
         }
         if !(c.fov >= MIN_FOV && c.fov < 180.0) {
