@@ -643,23 +643,18 @@ fn impossible_motion() {
 
 #[test]
 fn impossible_shutter() {
-    let text = "Scene(camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (8, 8),\n shutter: (1, 0)))";
-    let e = parse_scene(text, Path::new("scenes/bad.ron"))
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(
-        e.starts_with("scenes/bad.ron:") && e.contains("open ≤ close"),
-        "{e}"
-    );
-    // Finite ends whose difference overflows: every sample time would be the close.
-    let text = "Scene(camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (8, 8),\n shutter: (-3e38, 3e38)))";
-    let e = parse_scene(text, Path::new("scenes/bad.ron"))
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(
-        e.starts_with("scenes/bad.ron:") && e.contains("longer than f32 holds"),
-        "{e}"
-    );
+    // Reversed ends; finite ends whose difference overflows (every sample time would be the close).
+    for (shutter, words) in [
+        ("(1, 0)", "open ≤ close"),
+        ("(-3e38, 3e38)", "longer than f32 holds"),
+    ] {
+        let text = format!(
+            "Scene(camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), fov: 40, resolution: (8, 8),\n shutter: {shutter}))"
+        );
+        let e = parse_scene(&text, Path::new("scenes/bad.ron"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.starts_with("scenes/bad.ron:") && e.contains(words), "{e}");
+    }
 }

@@ -41,6 +41,25 @@ fn layer<'a>(out: &'a RenderOutput, name: &str) -> &'a lightlab_integrators::Fil
         .1
 }
 
+/// Asserts that `method`'s estimate of `class` (mean ± standard error per channel) agrees with the
+/// reference's within `crit` standard errors, after an allowance of `bias` × the reference for a
+/// consistent method's blur.
+fn assert_agrees(method: &str, class: &str, got: MeanSe, want: MeanSe, bias: f64, crit: f64) {
+    let ((m, s), (rm, rs)) = (got, want);
+    for c in 0..3 {
+        let excess = ((m[c] - rm[c]).abs() - bias * rm[c]).max(0.0);
+        let zs = z(excess, s[c], 0.0, rs[c]);
+        assert!(
+            zs < crit,
+            "{method}: {class} channel {c}: {} ± {} vs {} ± {}",
+            m[c],
+            s[c],
+            rm[c],
+            rs[c]
+        );
+    }
+}
+
 /// Every integrator's layers — by class with overlapping expressions, and by bounce count — add
 /// up to its image pixel by pixel (to rounding), and a `paths` filter gives exactly its layer.
 #[test]
@@ -205,19 +224,14 @@ fn caustic_classes_agree_between_methods() {
             } else {
                 &reference
             };
-            let (rm, rs) = image_mean(layer(r, class));
-            for c in 0..3 {
-                let excess = ((m[c] - rm[c]).abs() - bias * rm[c]).max(0.0);
-                let zs = z(excess, s[c], 0.0, rs[c]);
-                assert!(
-                    zs < crit,
-                    "{method}: {class} channel {c}: {} ± {} vs {} ± {}",
-                    m[c],
-                    s[c],
-                    rm[c],
-                    rs[c]
-                );
-            }
+            assert_agrees(
+                method,
+                class,
+                (m, s),
+                image_mean(layer(r, class)),
+                bias,
+                crit,
+            );
         }
     }
 }
@@ -263,20 +277,12 @@ fn plastic_coating_reflections_are_specular_in_every_method() {
             (got.to_vec(), z_critical(sidak(1e-3, tests)))
         };
         for (class, (m, s)) in classes.into_iter().zip(estimates) {
-            let (rm, rs) = image_mean(layer(&reference, class));
-            for c in 0..3 {
-                assert!(rm[c] > 0.0, "{class}: the reference is black");
-                let excess = ((m[c] - rm[c]).abs() - bias * rm[c]).max(0.0);
-                let zs = z(excess, s[c], 0.0, rs[c]);
-                assert!(
-                    zs < crit,
-                    "{method}: {class} channel {c}: {} ± {} vs path tracing {} ± {}",
-                    m[c],
-                    s[c],
-                    rm[c],
-                    rs[c]
-                );
-            }
+            let want = image_mean(layer(&reference, class));
+            assert!(
+                want.0.iter().all(|&r| r > 0.0),
+                "{class}: the reference is black"
+            );
+            assert_agrees(method, class, (m, s), want, bias, crit);
         }
     }
 }
