@@ -211,6 +211,8 @@ fn packet_hits(p: &Packet, r: &PacketRay, w: &WatertightRay, t_max: f32) -> Pack
     }
     let det = e0 + e1 + e2;
     let sz = r.s[2];
+    // Depths in length units for the x and y error bounds, as in the scalar test.
+    let max_zl = p0[2].abs().max(p1[2].abs()).max(p2[2].abs());
     let (z0, z1, z2) = (p0[2] * sz, p1[2] * sz, p2[2] * sz);
     let t_scaled = e0 * z0 + e1 * z1 + e2 * z2;
     let limit = Vec4::splat(t_max) * det;
@@ -223,8 +225,8 @@ fn packet_hits(p: &Packet, r: &PacketRay, w: &WatertightRay, t_max: f32) -> Pack
     let delta_z = Vec4::splat(gamma(3)) * max_zt;
     let max_xt = p0[0].abs().max(p1[0].abs()).max(p2[0].abs());
     let max_yt = p0[1].abs().max(p1[1].abs()).max(p2[1].abs());
-    let delta_x = Vec4::splat(gamma(5)) * (max_xt + max_zt);
-    let delta_y = Vec4::splat(gamma(5)) * (max_yt + max_zt);
+    let delta_x = Vec4::splat(gamma(5)) * (max_xt + max_zl);
+    let delta_y = Vec4::splat(gamma(5)) * (max_yt + max_zl);
     let delta_e = Vec4::splat(2.0)
         * (Vec4::splat(gamma(2)) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = e0.abs().max(e1.abs()).max(e2.abs());

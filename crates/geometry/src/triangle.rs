@@ -93,6 +93,8 @@ pub(crate) fn intersect(ray: &WatertightRay, v: &[Vec3; 3], t_max: f32) -> Optio
         return None;
     }
 
+    // The depths in length units, before they are scaled into units of t.
+    let max_zl = p0.z.abs().max(p1.z.abs()).max(p2.z.abs());
     p0.z *= ray.sz;
     p1.z *= ray.sz;
     p2.z *= ray.sz;
@@ -108,13 +110,17 @@ pub(crate) fn intersect(ray: &WatertightRay, v: &[Vec3; 3], t_max: f32) -> Optio
     let t = t_scaled * inv_det;
 
     // Conservative check that t > 0 (pbrt-v4 §6.8.7, "Ensure that computed triangle t is
-    // conservatively greater than zero").
+    // conservatively greater than zero"). The sheared x and y carry the rounding of x + Sx·z with
+    // |Sx| ≤ 1 and z in length units, so their bounds take the unscaled depths `max_zl`; pbrt
+    // takes the depths scaled by 1/d_z, the same for a unit direction but in units of t for a
+    // segment d = p1 − p0, whose bound then held a fixed γ₅ and grew as 1/|d|: in a scene 10⁻⁶
+    // across, shadow rays ignored occluders in the first tenth of their segment.
     let max_zt = p0.z.abs().max(p1.z.abs()).max(p2.z.abs());
     let delta_z = gamma(3) * max_zt;
     let max_xt = p0.x.abs().max(p1.x.abs()).max(p2.x.abs());
     let max_yt = p0.y.abs().max(p1.y.abs()).max(p2.y.abs());
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
+    let delta_x = gamma(5) * (max_xt + max_zl);
+    let delta_y = gamma(5) * (max_yt + max_zl);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = e0.abs().max(e1.abs()).max(e2.abs());
     let delta_t =
