@@ -45,13 +45,16 @@ impl Motion {
             .then_some(Motion { pivot, keys })
     }
 
-    /// The transform at time `t`.
+    /// The transform at time `t`. Its offset pivot + T − R·pivot is formed in f64: in f32 a pivot
+    /// far from the shape (the file's origin, with the scene 10⁷ away) cancelled the translation
+    /// to its float steps there (a 0.5 drop moved in steps of 1–2 units).
     pub fn at(&self, t: f32) -> RigidTransform {
         let (translate, rotate) = self.state(t);
         let r = Mat3::from_quat(rotate);
+        let pivot = self.pivot.as_dvec3();
         RigidTransform {
             r,
-            c: self.pivot + translate - r * self.pivot,
+            c: (pivot + translate.as_dvec3() - r.as_dmat3() * pivot).as_vec3(),
         }
     }
 
@@ -104,11 +107,28 @@ impl Motion {
         let keys = self.keys[first..=last]
             .iter()
             .fold(Vec3::ZERO, |m, k| m.max(k.translate.abs()));
-        let reach = (center - self.pivot).length() + radius;
-        // Rounding of the sums and of the rotation, relative to the magnitudes involved.
-        let pad = Vec3::splat(reach) + self.pivot.abs() + keys.max(lo.abs().max(hi.abs()));
-        let reach = Vec3::splat(reach) + pad * (4.0 * f32::EPSILON);
-        (self.pivot + lo - reach, self.pivot + hi + reach)
+        let arm = (center - self.pivot).length();
+        let translations = keys.max(lo.abs().max(hi.abs()));
+        let turns = self.keys[first..=last]
+            .windows(2)
+            .any(|w| w[0].rotate != w[1].rotate);
+        // Each box is padded for the rounding of the sums and of the rotation, relative to the
+        // magnitudes involved.
+        if turns {
+            // The centre stays on the sphere of radius `arm` about the translated pivot.
+            let pad = Vec3::splat(arm + radius) + self.pivot.abs() + translations;
+            let reach = Vec3::splat(arm + radius) + pad * (4.0 * f32::EPSILON);
+            (self.pivot + lo - reach, self.pivot + hi + reach)
+        } else {
+            // One rotation throughout: the centre only translates, R·centre + c(t) with c moving
+            // as T does (a far pivot must not widen the box, nor the scene's extent and the
+            // photon radii taken from it).
+            let start = self.at(open);
+            let at_rest = start.point(center) - self.state(open).0;
+            let pad = center.abs() + Vec3::splat(radius) + start.c.abs() + translations;
+            let reach = Vec3::splat(radius) + pad * (4.0 * f32::EPSILON);
+            (at_rest + lo - reach, at_rest + hi + reach)
+        }
     }
 }
 
@@ -271,5 +291,32 @@ mod tests {
                 hi.x
             );
         }
+    }
+
+    /// A pivot far from the shape changes nothing for a motion that does not turn: the offset is
+    /// exact (in f32 a pivot 10⁷ away rounded a 0.5 drop away), and the swept box hugs the shape's
+    /// path instead of reaching around the pivot.
+    #[test]
+    fn a_far_pivot_neither_rounds_nor_widens_a_translation() {
+        let pivot = Vec3::new(0.0, 1e7, 0.0);
+        let m = Motion::new(
+            pivot,
+            vec![
+                key(0.0, Vec3::ZERO, 30.0),
+                key(1.0, Vec3::new(0.0, -0.5, 0.0), 30.0),
+            ],
+        )
+        .unwrap();
+        let c = Vec3::new(0.5, 0.0, 0.0);
+        let drop = m.at(0.0).point(c) - m.at(1.0).point(c);
+        assert!((drop - Vec3::new(0.0, 0.5, 0.0)).length() < 1e-6, "{drop}");
+        let (lo, hi) = m.swept_bounds(c, 0.25, (0.0, 1.0));
+        for i in 0..=100 {
+            let w = m.at(i as f32 / 100.0).point(c);
+            assert!(
+                (w - Vec3::splat(0.25)).cmpge(lo).all() && (w + Vec3::splat(0.25)).cmple(hi).all()
+            );
+        }
+        assert!((hi - lo).max_element() < 2.0, "{lo}..{hi}");
     }
 }
