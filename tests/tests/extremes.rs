@@ -107,7 +107,8 @@ fn emitters_smaller_than_a_pixel_are_rendered_by_bdpt() {
     }
 }
 
-/// Gather radii below what f32 positions resolve are refused, naming the smallest usable one;
+/// Gather radii below what f32 positions resolve, or wider than the scene, are refused, naming the
+/// usable range;
 /// at twice that radius, far from the origin (coordinates near 10³, where positions are 6e-5
 /// apart), a constant photon density is still estimated without bias.
 #[test]
@@ -135,6 +136,19 @@ fn photon_radii_at_the_limit_of_f32() {
         );
     }
     let ok = IntegratorConfig::from_ron(&format!("Sppm(radius: Absolute({}))", 2.0 * min)).unwrap();
+    assert!(ok.build().unwrap().check_scene(&point_over_plane).is_ok());
+    // Nor wider than the scene: a disk beyond its diameter (r² overflows f32 at Relative(1e20))
+    // gathered nothing, and the photon term left the image without a word.
+    for config in [
+        "Sppm(radius: Relative(1e20))",
+        "Vcm(radius: Relative(2.5))",
+        "PhotonMap(gather: Radius(Absolute(1e4)))",
+    ] {
+        let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
+        let e = integrator.check_scene(&point_over_plane).unwrap_err();
+        assert!(e.contains("wider than the scene itself"), "{config}: {e}");
+    }
+    let ok = IntegratorConfig::from_ron("Vcm(radius: Relative(2))").unwrap();
     assert!(ok.build().unwrap().check_scene(&point_over_plane).is_ok());
 
     // A constant density near (1000, 0, 1000): the radius 2 × 256 float steps there.

@@ -414,6 +414,15 @@ mod tests {
         for (bad, words) in [
             ("Sppm(alpha: 1.5)", "alpha"),
             ("Sppm(alpha: 0)", "alpha"),
+            (
+                "Sppm(alpha: 0.01)",
+                "update: Local, alpha must be at least 0.1",
+            ),
+            ("Ppm(alpha: 1e-6, update: Local)", "seldom reach"),
+            (
+                "PhotonMap(indirect: FinalGather(rays: 4294967295))",
+                "FinalGather rays must be between 1 and 16384",
+            ),
             ("Sppm(radius: Absolute(0))", "radius"),
             ("Sppm(radius: Relative(-1))", "radius"),
             ("Ppm(photons_per_pass: 0)", "photons_per_pass"),

@@ -62,13 +62,31 @@ pub fn smallest_radius(scene: &lightlab_scene::Scene) -> f32 {
     256.0 * f32::EPSILON * extent
 }
 
-/// Checks that a gather radius of `what` (`length`) is one the scene can resolve.
+/// The smallest `alpha` of the `Local` radius update (measured on the Cornell box, 8 × 8, 300
+/// passes, six seeds: −2 ± 3 % at 0.1, −7 % at 0.01; `Global` is unbiased at any α).
+const MIN_LOCAL_ALPHA: f32 = 0.1;
+
+/// Final-gather rays per visible point, at most: as many as 1024 light subpaths of VCM, a thousand
+/// times the default; 2³² − 1 was accepted and rendered for hours.
+const MAX_GATHER_RAYS: u32 = 16384;
+
+/// Checks that a gather radius of `what` (`length`) is one the scene can resolve, and no wider
+/// than the scene: a disk beyond its diameter (r² overflowing f32 at Relative(10²⁰)) gathered
+/// nothing, and the photon term vanished from the image without a word.
 pub(crate) fn check_radius(
     what: &str,
     length: Length,
     scene: &lightlab_scene::Scene,
 ) -> Result<(), String> {
     let (r, min) = (length.resolve(scene.radius), smallest_radius(scene));
+    if r > 2.0 * scene.radius {
+        return Err(format!(
+            "{what} {length:?} is {r:.3e} in this scene, wider than the scene itself (its \
+             diameter is {:.3e}): use at most Relative(2) or Absolute({:.2e})",
+            2.0 * scene.radius,
+            2.0 * scene.radius
+        ));
+    }
     if r >= min {
         return Ok(());
     }
@@ -227,8 +245,13 @@ impl Validate for PhotonMapConfig {
         self.caustic_gather
             .check("caustic_gather")
             .map_err(ConfigError::Invalid)?;
-        if self.indirect == (Indirect::FinalGather { rays: 0 }) {
-            return invalid("FinalGather needs at least 1 ray (or use indirect: Direct or Off)");
+        if let Indirect::FinalGather { rays } = self.indirect
+            && !(1..=MAX_GATHER_RAYS).contains(&rays)
+        {
+            return invalid(format!(
+                "FinalGather rays must be between 1 and {MAX_GATHER_RAYS} per visible point, got \
+                 {rays} (or use indirect: Direct or Off)"
+            ));
         }
         Ok(())
     }
@@ -242,6 +265,15 @@ impl Validate for ProgressiveConfig {
         if !(self.alpha > 0.0 && self.alpha < 1.0) {
             return invalid(format!(
                 "alpha must lie strictly between 0 and 1 (the fraction of photons kept per pass), got {}",
+                self.alpha
+            ));
+        }
+        if self.update == RadiusUpdate::Local && self.alpha < MIN_LOCAL_ALPHA {
+            return invalid(format!(
+                "with update: Local, alpha must be at least {MIN_LOCAL_ALPHA}: the first photons a \
+                 visible point receives shrink its r² by α itself, so a small α leaves disks that \
+                 photons seldom reach and the image renders dark for thousands of passes (−7 % at \
+                 0.01, −25 % at 1e-6 after 300); got {}, use update: Global for a small α",
                 self.alpha
             ));
         }
