@@ -164,10 +164,31 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
         write_exr(path, a.width, a.height, &error_layers(&a, &b, &region))
             .map_err(|e| e.to_string())?;
     }
+    // What keeps the z-test from holding its false-alarm rate, in both output forms.
+    let cautions: Vec<String> = match &c.z {
+        Some(z) => [&args.a, &args.b]
+            .into_iter()
+            .zip(&stats)
+            .filter_map(|(path, stats)| {
+                not_an_estimate(stats.as_ref()).map(|why| {
+                    format!(
+                        "the variance layer of {} is not the variance of its pixel mean ({why}), so the z-test does not hold its false-alarm rate",
+                        path.display()
+                    )
+                })
+            })
+            .chain(z.min_degrees_of_freedom.is_none().then(|| {
+                "z taken as normal: an image's samples per pixel are unknown (give --samples-a/--samples-b); the false-alarm rate then holds only for many samples per pixel".to_string()
+            }))
+            .collect(),
+        None => Vec::new(),
+    };
     if args.json {
+        let mut value = serde_json::to_value(&c).expect("comparison serialises");
+        value["cautions"] = serde_json::json!(cautions);
         println!(
             "{}",
-            serde_json::to_string_pretty(&c).expect("comparison serialises")
+            serde_json::to_string_pretty(&value).expect("comparison serialises")
         );
     } else {
         let f = |v: [f64; 3]| format!("({:.6}, {:.6}, {:.6})", v[0], v[1], v[2]);
@@ -193,13 +214,8 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                     z.alpha,
                     z.chi2_p_value
                 );
-                for (path, stats) in [&args.a, &args.b].into_iter().zip(&stats) {
-                    if let Some(why) = not_an_estimate(stats.as_ref()) {
-                        println!(
-                            "caution: the variance layer of {} is not the variance of its pixel mean ({why}), so the z-test does not hold its false-alarm rate",
-                            path.display()
-                        );
-                    }
+                for caution in cautions.iter().filter(|c| !c.starts_with("z taken")) {
+                    println!("caution: {caution}");
                 }
                 match z.min_degrees_of_freedom {
                     Some(dof) => println!(
@@ -207,9 +223,7 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                         counts.0.unwrap_or(0),
                         counts.1.unwrap_or(0)
                     ),
-                    None => println!(
-                        "z taken as normal: an image's samples per pixel are unknown (give --samples-a/--samples-b); the false-alarm rate then holds only for many samples per pixel"
-                    ),
+                    None => println!("{}", cautions.last().expect("the normal caution")),
                 }
             }
             None if a.variance.is_some() && b.variance.is_some() => {

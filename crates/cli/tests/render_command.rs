@@ -544,11 +544,26 @@ fn compare_two_renders() {
         "{out}{err}"
     );
     assert!(!out.contains("of a.exr is not"), "{out}");
+    // And in the JSON, which used to drop it.
+    let (_, out, err) = run(&["s.exr", "a.exr", "--json"]);
+    let json: serde_json::Value = serde_json::from_str(&out).expect(&err);
+    let cautions = json["cautions"].as_array().expect("a cautions list");
+    assert!(
+        cautions
+            .iter()
+            .any(|c| c.as_str().unwrap().contains("s.exr is not the variance")),
+        "{out}"
+    );
     std::fs::remove_file(dir.join("b.json")).unwrap();
     let (code, out, err) = run(&["a.exr", "b.exr"]);
     assert!(
         code == Some(0) && out.contains("z taken as normal"),
         "{out}{err}"
+    );
+    let (_, out, _) = run(&["a.exr", "b.exr", "--json"]);
+    assert!(
+        out.contains("\"cautions\"") && out.contains("z taken as normal"),
+        "{out}"
     );
     let (code, out, err) = run(&[
         "c.exr",
