@@ -69,6 +69,9 @@ fn parse_rect(s: &str) -> Result<(u32, u32, u32, u32), String> {
 }
 
 /// The statistics Lightlab wrote beside the image at `path`, if any.
+/// Said where an image's samples per pixel are unknown.
+const NORMAL_APPROXIMATION: &str = "z taken as normal: an image's samples per pixel are unknown (give --samples-a/--samples-b); the false-alarm rate then holds only for many samples per pixel";
+
 fn stats_of(path: &std::path::Path) -> Option<serde_json::Value> {
     let text = std::fs::read_to_string(path.with_extension("json")).ok()?;
     let json: serde_json::Value = serde_json::from_str(&text).ok()?;
@@ -164,9 +167,10 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
         write_exr(path, a.width, a.height, &error_layers(&a, &b, &region))
             .map_err(|e| e.to_string())?;
     }
-    // What keeps the z-test from holding its false-alarm rate, in both output forms.
-    let cautions: Vec<String> = match &c.z {
-        Some(z) => [&args.a, &args.b]
+    // What keeps the z-test from holding its false-alarm rate, in both output forms: variance
+    // layers that are no variance of the mean, and the normal approximation.
+    let variance_cautions: Vec<String> = match &c.z {
+        Some(_) => [&args.a, &args.b]
             .into_iter()
             .zip(&stats)
             .filter_map(|(path, stats)| {
@@ -177,15 +181,19 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                     )
                 })
             })
-            .chain(z.min_degrees_of_freedom.is_none().then(|| {
-                "z taken as normal: an image's samples per pixel are unknown (give --samples-a/--samples-b); the false-alarm rate then holds only for many samples per pixel".to_string()
-            }))
             .collect(),
         None => Vec::new(),
     };
+    let normal =
+        c.z.as_ref()
+            .is_some_and(|z| z.min_degrees_of_freedom.is_none());
     if args.json {
         let mut value = serde_json::to_value(&c).expect("comparison serialises");
-        value["cautions"] = serde_json::json!(cautions);
+        let cautions = variance_cautions
+            .iter()
+            .map(String::as_str)
+            .chain(normal.then_some(NORMAL_APPROXIMATION));
+        value["cautions"] = serde_json::json!(cautions.collect::<Vec<_>>());
         println!(
             "{}",
             serde_json::to_string_pretty(&value).expect("comparison serialises")
@@ -214,7 +222,7 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                     z.alpha,
                     z.chi2_p_value
                 );
-                for caution in cautions.iter().filter(|c| !c.starts_with("z taken")) {
+                for caution in &variance_cautions {
                     println!("caution: {caution}");
                 }
                 match z.min_degrees_of_freedom {
@@ -223,7 +231,7 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                         counts.0.unwrap_or(0),
                         counts.1.unwrap_or(0)
                     ),
-                    None => println!("{}", cautions.last().expect("the normal caution")),
+                    None => println!("{NORMAL_APPROXIMATION}"),
                 }
             }
             None if a.variance.is_some() && b.variance.is_some() => {

@@ -87,7 +87,8 @@ impl Motion {
         (open, close): (f32, f32),
     ) -> (Vec3, Vec3) {
         let inside = self.keys.iter().filter(|k| k.time > open && k.time < close);
-        let (lo, hi) = [self.state(open).0, self.state(close).0]
+        let at_open = self.state(open).0;
+        let (lo, hi) = [at_open, self.state(close).0]
             .into_iter()
             .chain(inside.map(|k| k.translate))
             .fold(
@@ -95,7 +96,7 @@ impl Motion {
                 |(lo, hi), t| (lo.min(t), hi.max(t)),
             );
         // The interpolation rounds relative to the keys it starts from: those of the segments
-        // that overlap the shutter.
+        // that overlap the shutter, whose translations also bound every interpolated one.
         let first = self
             .keys
             .partition_point(|k| k.time <= open)
@@ -104,11 +105,10 @@ impl Motion {
             .keys
             .partition_point(|k| k.time < close)
             .min(self.keys.len() - 1);
-        let keys = self.keys[first..=last]
+        let translations = self.keys[first..=last]
             .iter()
             .fold(Vec3::ZERO, |m, k| m.max(k.translate.abs()));
         let arm = (center - self.pivot).length();
-        let translations = keys.max(lo.abs().max(hi.abs()));
         let turns = self.keys[first..=last]
             .windows(2)
             .any(|w| w[0].rotate != w[1].rotate);
@@ -124,7 +124,7 @@ impl Motion {
             // as T does (a far pivot must not widen the box, nor the scene's extent and the
             // photon radii taken from it).
             let start = self.at(open);
-            let at_rest = start.point(center) - self.state(open).0;
+            let at_rest = start.point(center) - at_open;
             let pad = center.abs() + Vec3::splat(radius) + start.c.abs() + translations;
             let reach = Vec3::splat(radius) + pad * (4.0 * f32::EPSILON);
             (at_rest + lo - reach, at_rest + hi + reach)
