@@ -12,10 +12,10 @@
 
 use lightlab_core::NoProgress;
 use lightlab_integrators::{Budget, IntegratorConfig};
-use lightlab_testkit::stats::{sidak, t_critical, z_critical};
+use lightlab_testkit::stats::{sidak, t_critical};
 use lightlab_tests::{
-    across_seeds, caustic_sphere, check_plane_under_sky, cornell, furnace, image_mean, regions,
-    render, scene, z,
+    across_seeds, caustic_sphere, check_plane_under_sky, cornell, furnace, image_mean,
+    pass_regions, regions, render, scene, z,
 };
 
 /// The variants, and VCM with three light paths per pixel and pass.
@@ -108,11 +108,16 @@ fn vc_agrees_with_bdpt() {
         "Vcm(variant: Vc, max_bounces: 6)",
         "Vcm(variant: Vc, max_bounces: 6, light_paths: 3)",
     ];
-    let crit = z_critical(sidak(1e-3, (cases.len() * vcs.len() * 16 * 3) as u64));
+    // Vc's errors have 127 degrees of freedom (pass_regions), BDPT's far more: Welch's ν is at
+    // least 127, so t(127) is a conservative critical value.
+    let crit = t_critical(
+        sidak(1e-3, (cases.len() * vcs.len() * 16 * 3) as u64),
+        127.0,
+    );
     for ((what, text), config) in cases.iter().flat_map(|c| vcs.iter().map(move |v| (c, v))) {
         let sc = scene(text);
         let bdpt = regions(&render(&sc, "Bdpt(max_bounces: 6)", 128, 1), 4);
-        let vc = regions(&render(&sc, config, 128, 2), 4);
+        let vc = pass_regions(&sc, config, 128, 2, 4);
         for (k, (a, b)) in vc.iter().zip(&bdpt).enumerate() {
             for c in 0..3 {
                 let z = z(a.0[c], a.1[c], b.0[c], b.1[c]);
@@ -133,9 +138,9 @@ fn vc_agrees_with_bdpt() {
 /// caustic sphere: BDPT, which finds `L S+ D E` far better) region by region within noise plus
 /// an allowance for the blur of merging at a radius that shrinks from 2 % of the scene: 1 %
 /// for `Vcm`, whose weights leave merges little of these paths, 3 % for `Bpm`, which merges
-/// everything. The noise is the film's spread of per-pass estimates (an approximation: passes at
-/// a shrinking radius are not identically distributed). Leaving out merges in `Bpm` (only
-/// emission seen directly remains) must fail the check.
+/// everything. Their noise is the spread of each region's per-pass estimates (`pass_regions`:
+/// passes at a shrinking radius are not identically distributed, which makes it conservative).
+/// Leaving out merges in `Bpm` (only emission seen directly remains) must fail the check.
 #[test]
 fn vcm_and_bpm_agree_with_path_tracing() {
     let cases = [
@@ -150,12 +155,12 @@ fn vcm_and_bpm_agree_with_path_tracing() {
             "Bdpt(max_bounces: 6)",
         ),
     ];
-    let crit = z_critical(sidak(1e-3, (cases.len() * 2 * 16 * 3) as u64));
+    let crit = t_critical(sidak(1e-3, (cases.len() * 2 * 16 * 3) as u64), 127.0);
     for (what, text, reference) in cases {
         let sc = scene(&text);
         let want = regions(&render(&sc, reference, 2048, 1), 4);
         let worst = |config: &str| {
-            let got = regions(&render(&sc, config, 128, 2), 4);
+            let got = pass_regions(&sc, config, 128, 2, 4);
             let mut worst = 0.0f64;
             for (g, w) in got.iter().zip(&want) {
                 for c in 0..3 {
@@ -361,13 +366,14 @@ fn every_light_camera_sampler_and_material_agrees_with_path_tracing() {
         ("rough glass, Phong", rough, "max_bounces: 5", 128),
     ];
     assert!(cases[1].1 != plane && cases[4].1.contains("Phong") && cases[4].1.contains("Rough"));
-    let crit = z_critical(sidak(1e-3, (cases.len() * 4 * 3) as u64));
+    // VCM's errors have spp − 1 ≥ 63 degrees of freedom (pass_regions); t(63) is conservative.
+    let crit = t_critical(sidak(1e-3, (cases.len() * 4 * 3) as u64), 63.0);
     for (what, text, settings, spp) in cases {
         let sc = scene(&text);
         let sep = if settings.is_empty() { "" } else { ", " };
         let pt = regions(&render(&sc, &format!("Path({settings})"), spp * 8, 1), 2);
         let config = format!("Vcm({settings}{sep}radius: Relative(0.01))");
-        let vcm = regions(&render(&sc, &config, spp, 2), 2);
+        let vcm = pass_regions(&sc, &config, spp, 2, 2);
         for (k, (a, b)) in vcm.iter().zip(&pt).enumerate() {
             for c in 0..3 {
                 let sigma = (a.1[c] * a.1[c] + b.1[c] * b.1[c]).sqrt();
