@@ -207,3 +207,35 @@ fn every_pixel_is(out: &lightlab_integrators::RenderOutput, config: &str, want: 
     }
     assert_eq!(out.stats.non_finite_total(), 0, "{config}");
 }
+
+/// A map whose brightest texel times `scale` passes the emitted-radiance cap (10¹⁵, where pixel
+/// variances overflow f32) is refused at load, naming the texel, like any other light; before,
+/// a texel of 10³⁰ rendered (light tracing silently black, path tracing and BDPT 5× apart).
+#[test]
+fn a_map_brighter_than_the_cap_is_refused() {
+    let dir = std::env::temp_dir().join(format!("lightlab-envmap-cap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("sun.exr");
+    exr::prelude::write_rgb_file(&path, 4, 2, |i, j| {
+        let sun = if (i, j) == (2, 1) { 1e12 } else { 1.0 };
+        (sun, sun, sun)
+    })
+    .unwrap();
+    let load = |scale: f32| {
+        let text = format!(
+            "Scene(camera: Camera(eye: (0, 3, 3), target: (0, 0, 0), fov: 30, resolution: (4, 4)),
+                materials: {{ \"plane\": Diffuse(albedo: (0.5, 0.5, 0.5)) }},
+                shapes: [ Shape(geometry: Quad(corner: (-5, 0, -5), edge1: (0, 0, 10), edge2: (10, 0, 0)), material: \"plane\") ],
+                lights: [ EnvironmentMap(file: \"sun.exr\", scale: {scale}) ])"
+        );
+        let scene = dir.join("sun.ron");
+        std::fs::write(&scene, &text).unwrap();
+        lightlab_scene::load_scene(&scene).map(|_| ())
+    };
+    assert!(load(100.0).is_ok());
+    let err = load(1e4).unwrap_err().to_string();
+    assert!(
+        err.contains("sun.ron") && err.contains("texel (2, 1)") && err.contains("1e15"),
+        "{err}"
+    );
+}

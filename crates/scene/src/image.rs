@@ -3,14 +3,26 @@
 use lightlab_core::Rgb;
 use std::path::Path;
 
+/// The most memory an image may take decoded (the `image` crate's default, 512 MiB, refused
+/// 16384 × 8192 environment maps): above it a corrupt header's dimensions would exhaust memory.
+const MAX_DECODED_BYTES: u64 = 16 << 30;
+
 /// An image as linear RGB: width, height and texels row by row from the top.
 pub(crate) type RgbImage = (usize, usize, Vec<Rgb>);
 
-/// Reads an image file as linear RGB (alpha ignored, grey replicated): OpenEXR and Radiance HDR
-/// as stored; PNG and JPEG (8 or 16 bits per channel) decoded from sRGB (IEC 61966-2-1) unless
-/// `raw`, when their values scaled to [0, 1] are taken as they are. Mitsuba 3 reads bitmaps the
-/// same way.
+/// Reads an image file as linear RGB (alpha ignored): OpenEXR (R, G and B channels) and Radiance
+/// HDR as stored; PNG and JPEG (8 or 16 bits per channel, grey replicated) decoded from sRGB
+/// (IEC 61966-2-1) unless `raw`, when their values scaled to [0, 1] are taken as they are.
+/// Mitsuba 3 reads bitmaps the same way. An image without texels is refused.
 pub(crate) fn read_rgb_image(path: &Path, raw: bool) -> Result<RgbImage, String> {
+    let (w, h, texels) = read_any(path, raw)?;
+    if w == 0 || h == 0 {
+        return Err(format!("{} is empty ({w} × {h} texels)", path.display()));
+    }
+    Ok((w, h, texels))
+}
+
+fn read_any(path: &Path, raw: bool) -> Result<RgbImage, String> {
     if !path.is_file() {
         return Err(format!("image file {} does not exist", path.display()));
     }
@@ -18,16 +30,40 @@ pub(crate) fn read_rgb_image(path: &Path, raw: bool) -> Result<RgbImage, String>
     if extension.eq_ignore_ascii_case("exr") {
         return read_rgb_exr(path);
     }
-    let image = image::ImageReader::open(path)
-        .and_then(|r| r.with_guessed_format())
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?
-        .decode()
-        .map_err(|e| {
-            format!(
-                "cannot read {} (PNG, JPEG, OpenEXR and Radiance HDR are supported): {e}",
-                path.display()
-            )
-        })?;
+    let unreadable = |e: image::ImageError| {
+        let why = match e {
+            image::ImageError::Limits(_) => format!(
+                "decoding it takes more than {} GiB of memory",
+                MAX_DECODED_BYTES >> 30
+            ),
+            e => e.to_string(),
+        };
+        format!(
+            "cannot read {} (PNG, JPEG, OpenEXR and Radiance HDR are supported): {why}",
+            path.display()
+        )
+    };
+    let mut limits = image::Limits::no_limits();
+    limits.max_alloc = Some(MAX_DECODED_BYTES);
+    let mut file = std::io::BufReader::new(
+        std::fs::File::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?,
+    );
+    let image = if std::io::BufRead::fill_buf(&mut file).is_ok_and(|b| b.starts_with(b"#?")) {
+        // Radiance HDR. Its first line names the program that wrote it: `#?RADIANCE`, or
+        // `#?RGBE` from Mitsuba 3 and Walter's rgbe.c; the strict decoder takes only the former.
+        use image::ImageDecoder;
+        let mut decoder =
+            image::codecs::hdr::HdrDecoder::new_nonstrict(file).map_err(unreadable)?;
+        limits.reserve(decoder.total_bytes()).map_err(unreadable)?;
+        decoder.set_limits(limits).map_err(unreadable)?;
+        image::DynamicImage::from_decoder(decoder).map_err(unreadable)?
+    } else {
+        let mut reader = image::ImageReader::new(file)
+            .with_guessed_format()
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        reader.limits(limits);
+        reader.decode().map_err(unreadable)?
+    };
     let linear = matches!(
         image,
         image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_)
@@ -65,7 +101,12 @@ fn read_rgb_exr(path: &Path) -> Result<RgbImage, String> {
             texels[pos.y() * *w + pos.x()] = Rgb::new(r, g, b);
         },
     )
-    .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    .map_err(|e| {
+        format!(
+            "cannot read {} (an OpenEXR image needs R, G and B channels): {e}",
+            path.display()
+        )
+    })?;
     let size = image.layer_data.size;
     let (_, texels) = image.layer_data.channel_data.pixels;
     Ok((size.width(), size.height(), texels))
@@ -130,6 +171,42 @@ mod tests {
                 .max_component()
                 < 0.02
         );
+    }
+
+    /// Radiance HDR files whose first line is `#?RGBE` (Mitsuba 3's and Walter's rgbe.c writers)
+    /// read like `#?RADIANCE` ones: RGBE (128, 64, 32, 129) is (1, 0.5, 0.25), without Ward's
+    /// +0.5 (as Mitsuba 3 and stb_image decode it). A 16384 × 8192 map (1.5 GiB decoded) is not
+    /// refused by the `image` crate's default 512 MiB limit: its header alone, without pixels,
+    /// fails for want of data, not of memory.
+    #[test]
+    fn hdr_headers_of_other_writers_and_large_maps_read() {
+        let path = dir().join("rgbe.hdr");
+        let mut bytes = b"#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n".to_vec();
+        bytes.extend([128, 64, 32, 129, 128, 64, 32, 129]);
+        std::fs::write(&path, &bytes).unwrap();
+        let (w, h, t) = read_rgb_image(&path, false).unwrap();
+        assert_eq!((w, h), (2, 1));
+        assert_eq!(t[1], Rgb::new(1.0, 0.5, 0.25));
+        let large = dir().join("large.hdr");
+        std::fs::write(
+            &large,
+            b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8192 +X 16384\n",
+        )
+        .unwrap();
+        let err = read_rgb_image(&large, false).unwrap_err();
+        assert!(!err.contains("emory"), "{err}");
+        let huge = dir().join("huge.hdr");
+        std::fs::write(
+            &huge,
+            b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 200000 +X 200000\n",
+        )
+        .unwrap();
+        let err = read_rgb_image(&huge, false).unwrap_err();
+        assert!(err.contains("more than 16 GiB"), "{err}");
+        let empty = dir().join("empty.hdr");
+        std::fs::write(&empty, b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n").unwrap();
+        let err = read_rgb_image(&empty, false).unwrap_err();
+        assert!(err.contains("empty.hdr"), "{err}");
     }
 
     #[test]

@@ -9,8 +9,8 @@
 //! the same reason). `Scene::origin` records where that centre is in the file's coordinates.
 
 use crate::desc::{
-    ColourDesc, GeometryDesc, GeometryRaw, LightDesc, LightRaw, MaterialDesc, MaterialRaw,
-    Microfacets, MotionDesc, RotationDesc, Roughness, SceneDesc, TransformDesc,
+    ColourDesc, GeometryDesc, GeometryRaw, LightDesc, LightRaw, MAX_EMITTED, MaterialDesc,
+    MaterialRaw, Microfacets, MotionDesc, RotationDesc, Roughness, SceneDesc, TransformDesc,
 };
 use crate::{Camera, EnvMap, Light, Scene, SceneError};
 use glam::{DMat3, DQuat, DVec3, Mat3, Vec2, Vec3};
@@ -607,8 +607,30 @@ fn environment_map(
         LightRaw::Environment { radiance } => acc + radiance,
         _ => acc,
     });
+    // The scale alone is checked with the description; the brightest texel (an HDR sun) too,
+    // once the map has refused negative and non-finite texels.
+    let brightest = texels
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.max_component().total_cmp(&b.1.max_component()))
+        .map(|(i, t)| (i, t.max_component()));
     let map = EnvMap::new(w, h, texels, scale, constant, to_world)
-        .map_err(|m| (needle, format!("{file}: {m}")))?;
+        .map_err(|m| (needle.clone(), format!("{file}: {m}")))?;
+    if let Some((i, t)) = brightest
+        && t as f64 * scale as f64 + constant.max_component() as f64 > MAX_EMITTED as f64
+    {
+        return Err((
+            needle,
+            format!(
+                "{file}: texel ({}, {}) of {t} times scale {scale} (plus any constant \
+                 Environment) emits more than {MAX_EMITTED:e} per channel: pixel values are \
+                 squared for their variance in 32-bit floats, which overflow beyond that; lower \
+                 the scale or express the scene in larger units of power",
+                i % w,
+                i / w
+            ),
+        ));
+    }
     Ok(Some((map, constant)))
 }
 
