@@ -5,7 +5,7 @@ use clap::Args;
 use indicatif::MultiProgress;
 use lightlab_experiments::desc::load_experiment;
 use lightlab_experiments::plan::expand;
-use lightlab_experiments::report::{finished_runs, plot_from_csv, write_report};
+use lightlab_experiments::report::{finished_runs, missing_inputs, plot_from_csv, write_report};
 use lightlab_experiments::runner::{
     ExperimentIdentity, RunOptions, merge, output_dir, run_experiment, write_source,
 };
@@ -177,21 +177,13 @@ pub fn report(args: ReportArgs) -> Result<(), String> {
     }
     // Rebuilding without the images would drop bias², variance and the mean images from
     // summary.json: refuse instead (results committed without their EXR files are like that).
-    let missing: Vec<String> = runs
-        .iter()
-        .map(|r| out_dir.join("runs").join(&r.id).join("image.exr"))
-        .chain(runs.iter().map(|r| r.reference.clone()))
-        .filter(|p| !p.is_file())
-        .map(|p| p.display().to_string())
-        .collect::<std::collections::BTreeSet<_>>()
-        .into_iter()
-        .collect();
-    if !missing.is_empty() {
+    let missing = missing_inputs(&out_dir, &runs);
+    if let Some(first) = missing.first() {
         return Err(format!(
             "the report needs every run's image and its reference; {} file(s) missing (first: {}): \
              nothing was rewritten (rerun the experiment: finished runs are kept with their images)",
             missing.len(),
-            missing[0]
+            first.display()
         ));
     }
     // Runs the experiment plans that have no results (not run yet, or deleted): the settings

@@ -273,8 +273,44 @@ struct SeriesFit {
 }
 
 /// Rewrites `runs.csv`, `summary.json` and the plots of `out_dir` from its finished runs.
+/// Where the reference run `r` was measured against is: `reference/<scene>.exr` in the output
+/// directory (the image and the variance the errors used), or, for runs recorded before it was
+/// kept there, the path recorded (the cache file, relative to the directory `run` started in).
+pub fn reference_file(out_dir: &Path, r: &RunRecord) -> PathBuf {
+    let kept = out_dir.join(&r.reference);
+    if r.reference.is_relative() && kept.is_file() {
+        kept
+    } else {
+        r.reference.clone()
+    }
+}
+
+/// The files `write_report` reads besides the runs' metrics — every run's image and its reference
+/// — that are missing.
+pub fn missing_inputs(out_dir: &Path, records: &[RunRecord]) -> Vec<PathBuf> {
+    records
+        .iter()
+        .map(|r| out_dir.join("runs").join(&r.id).join("image.exr"))
+        .chain(records.iter().map(|r| reference_file(out_dir, r)))
+        .filter(|p| !p.is_file())
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect()
+}
+
+/// Rebuilds runs.csv, summary.json, the plots and the report from the finished runs in `out_dir`.
+/// Bias², variance, ꟻLIP and the mean images come from the runs' images and their reference: if
+/// one is missing or unreadable nothing but runs.csv is rewritten, and the error says which.
 pub fn write_report(out_dir: &Path) -> io::Result<()> {
     let records = finished_runs(out_dir)?;
+    if let Some(first) = missing_inputs(out_dir, &records).first() {
+        return Err(io::Error::other(format!(
+            "the report needs every run's image and its reference, and {} is missing: summary.json \
+             and the report were not rewritten (results kept without their EXR files cannot be \
+             summarised again; rerun the experiment into another --results directory)",
+            first.display()
+        )));
+    }
     let rows = csv_rows(&records);
     let mut w = csv::Writer::from_writer(Vec::new());
     for row in &rows {
@@ -294,32 +330,46 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             .or_default()
             .push(r);
     }
-    let mut references: BTreeMap<PathBuf, Option<crate::metrics::Image>> = BTreeMap::new();
+    let mut references: BTreeMap<PathBuf, crate::metrics::Image> = BTreeMap::new();
     // Per setting, what the HTML report shows besides the summary.
     let (mut settings, mut shown) = (Vec::new(), Vec::new());
     for ((scene, method, setting), rs) in &groups {
         let get = |f: fn(&RunRecord) -> f64| mean_se(&rs.iter().map(|r| f(r)).collect::<Vec<_>>());
-        let reference = references
-            .entry(rs[0].reference.clone())
-            .or_insert_with(|| load_image(&rs[0].reference).ok());
+        let file = reference_file(out_dir, rs[0]);
+        if !references.contains_key(&file) {
+            let image = load_image(&file).map_err(io::Error::other)?;
+            references.insert(file.clone(), image);
+        }
+        let reference = &references[&file];
         // Each run's image file, read once: its image and its further layers.
         let (images, trial_layers): (Vec<Vec<[f32; 3]>>, Vec<Vec<RgbLayer>>) = rs
             .iter()
-            .filter_map(|r| read_exr(&out_dir.join("runs").join(&r.id).join("image.exr")).ok())
-            .filter_map(|(_, _, mut layers)| {
-                let i = layers.iter().position(|l| l.name == "radiance")?;
+            .map(|r| {
+                let path = out_dir.join("runs").join(&r.id).join("image.exr");
+                let unreadable = |why: String| {
+                    io::Error::other(format!(
+                        "{}: {why}; summary.json and the report were not rewritten",
+                        path.display()
+                    ))
+                };
+                let (_, _, mut layers) = read_exr(&path).map_err(|e| unreadable(e.to_string()))?;
+                let i = layers
+                    .iter()
+                    .position(|l| l.name == "radiance")
+                    .ok_or_else(|| unreadable("no radiance layer".into()))?;
                 let image = layers.swap_remove(i).pixels;
-                Some((image, html::extra_layers(layers)))
+                Ok((image, html::extra_layers(layers)))
             })
+            .collect::<io::Result<Vec<_>>>()?
+            .into_iter()
             .unzip();
         let slices: Vec<&[[f32; 3]]> = images.iter().map(|i| i.as_slice()).collect();
-        let bv = reference.as_ref().and_then(|r| bias_variance(&slices, r));
-        let bv_se = reference
-            .as_ref()
-            .and_then(|r| bias_variance_se(&slices, r));
+        let bv = bias_variance(&slices, reference);
+        let bv_se = bias_variance_se(&slices, reference);
         let (mut flip, mut mean) = (None, None);
-        let image = match (reference.as_ref(), mean_image(&slices)) {
-            (Some(r), Some(layers)) => {
+        let image = match mean_image(&slices) {
+            Some(layers) => {
+                let r = reference;
                 flip = perceptual::flip(&r.mean, &layers[0].pixels, r.width, r.height);
                 mean = Some(layers[0].pixels.clone());
                 let file = format!(
@@ -330,7 +380,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
                     .map_err(io::Error::other)?;
                 Some(file)
             }
-            _ => None,
+            None => None,
         };
         let flip_mean = flip.as_ref().map(|f| f.mean);
         shown.push((mean, flip.map(|f| f.map), images, trial_layers));
@@ -405,9 +455,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
     for ((((scene, _, _), rs), summary), (mean, flip_map, trial_images, trials)) in
         groups.iter().zip(&settings).zip(shown)
     {
-        let Some(Some(reference)) = references.get(&rs[0].reference) else {
-            continue;
-        };
+        let reference = &references[&reference_file(out_dir, rs[0])];
         // The further layers averaged over the trials.
         let mut layers = trials.first().cloned().unwrap_or_default();
         for l in &mut layers {
@@ -432,7 +480,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             None => scenes.push(html::SceneInput {
                 name: scene.clone(),
                 reference: reference.clone(),
-                reference_layers: read_exr(&rs[0].reference)
+                reference_layers: read_exr(&reference_file(out_dir, rs[0]))
                     .map(|(_, _, l)| html::extra_layers(l))
                     .unwrap_or_default(),
                 entries: vec![entry],

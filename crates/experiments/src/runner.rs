@@ -5,7 +5,7 @@
 
 use crate::atomic::write_atomic;
 use crate::desc::{BudgetDesc, ExperimentDesc, ReferenceDesc, load_experiment};
-use crate::image_io::{output_layers, write_exr};
+use crate::image_io::{RgbLayer, output_layers, write_exr};
 use crate::metrics::{Errors, errors};
 use crate::plan::{RunSpec, expand, shard};
 use crate::reference::{Reference, class_layers, reference};
@@ -187,7 +187,8 @@ pub struct RunRecord {
     /// layer of the reference.
     #[serde(default)]
     pub class_errors: Vec<(String, Errors)>,
-    /// The reference image the errors were measured against.
+    /// The reference image the errors were measured against: `reference/<scene>.exr`, relative
+    /// to the output directory (before it was kept there: the cache file's path as given).
     pub reference: PathBuf,
     /// What the method's pixel values converge to (`OneCameraPath` for `Ppm`: not the pixel
     /// integral the reference estimates).
@@ -265,6 +266,41 @@ pub fn load_scene(path: &Path, resolution: Option<(u32, u32)>) -> Result<(Scene,
     Ok((scene, text))
 }
 
+/// Where in the output directory the reference of scene `name` is kept as the runs were measured
+/// against it (relative to the output directory, as runs record it).
+fn kept_reference(name: &str) -> PathBuf {
+    Path::new("reference").join(format!("{name}.exr"))
+}
+
+/// Keeps reference `r` of scene `name` in `out_dir` as the errors use it: its image, and the
+/// variance only where it is subtracted (a rendered reference whose variance is no estimate, or an
+/// `Exr` reference's separate variance file or chosen layer, are stored as measured), with each
+/// path class's layer. The report recomputes bias² and variance from it, wherever the results are
+/// moved and whatever the cache holds.
+fn keep_reference(out_dir: &Path, name: &str, r: &Reference) -> Result<(), String> {
+    let (w, h) = (r.image.width, r.image.height);
+    let layers = |name: &str, image: &crate::metrics::Image| {
+        let variance = image.variance.as_ref().map(|v| RgbLayer {
+            name: if name == "radiance" {
+                "variance".into()
+            } else {
+                format!("{name}.variance")
+            },
+            pixels: v.clone(),
+        });
+        std::iter::once(RgbLayer {
+            name: name.into(),
+            pixels: image.mean.clone(),
+        })
+        .chain(variance)
+    };
+    let all: Vec<RgbLayer> = layers("radiance", &r.image)
+        .chain(r.classes.iter().flat_map(|(n, c)| layers(n, c)))
+        .collect();
+    let path = out_dir.join(kept_reference(name));
+    write_exr(&path, w, h, &all).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// The experiment's output directory.
 pub fn output_dir(desc: &ExperimentDesc, results: &Path) -> PathBuf {
     results.join(&desc.name)
@@ -337,6 +373,7 @@ pub fn run_experiment(
             if let Some(note) = &r.variance_note {
                 warnings.push(format!("{}: {note}", run.scene_name));
             }
+            keep_reference(&out_dir, &run.scene_name, &r)?;
             Ok((scene, r))
         };
     let mut warnings = Vec::new();
@@ -455,7 +492,7 @@ pub fn run_experiment(
             non_finite: out.stats.non_finite_total(),
             errors: e,
             class_errors,
-            reference: reference.path.clone(),
+            reference: kept_reference(&run.scene_name),
             pixel_limit: out.stats.pixel_limit,
             lightlab_version: env!("CARGO_PKG_VERSION").into(),
             machine: crate::html::machine(),
@@ -488,7 +525,12 @@ pub fn run_experiment(
     }
     warnings.sort();
     warnings.dedup();
-    write_report(&out_dir).map_err(|e| e.to_string())?;
+    // With nothing rendered now, results kept without their images (committed ones) stay as
+    // they are; after rendering, a report that cannot be rebuilt is an error.
+    match write_report(&out_dir) {
+        Err(e) if pending.is_empty() => warnings.push(e.to_string()),
+        r => r.map_err(|e| e.to_string())?,
+    }
     Ok(Outcome {
         out_dir,
         total,
@@ -597,6 +639,23 @@ pub fn merge(
     write_atomic(&out_dir.join("experiment.json"), json.as_bytes())
         .map_err(|e| format!("{}: {e}", out_dir.display()))?;
     write_source(path, out_dir)?;
+    // The references the runs were measured against (kept by each shard), before the runs that
+    // name them.
+    for shard_dir in shard_dirs {
+        let Ok(entries) = std::fs::read_dir(shard_dir.join("reference")) else {
+            continue;
+        };
+        for entry in entries {
+            let from = entry.map_err(|e| e.to_string())?.path();
+            let to = out_dir
+                .join("reference")
+                .join(from.file_name().unwrap_or_default());
+            if from.extension().is_some_and(|e| e == "exr") && !to.is_file() && from != to {
+                let bytes = std::fs::read(&from).map_err(|e| format!("{}: {e}", from.display()))?;
+                write_atomic(&to, &bytes).map_err(|e| format!("{}: {e}", to.display()))?;
+            }
+        }
+    }
     let mut copied = 0;
     for (id, from) in &sources {
         let to = out_dir.join("runs").join(id);

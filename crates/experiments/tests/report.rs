@@ -7,7 +7,7 @@
 use base64::Engine;
 use lightlab_core::NoProgress;
 use lightlab_experiments::reference::load_image;
-use lightlab_experiments::report::finished_runs;
+use lightlab_experiments::report::{finished_runs, reference_file};
 use lightlab_experiments::runner::{RunOptions, run_experiment};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -114,7 +114,7 @@ fn report_embeds_every_setting_with_its_image_in_budget_order() {
         (scene["width"].as_u64(), scene["height"].as_u64()),
         (Some(12), Some(8))
     );
-    let reference = load_image(&finished_runs(&out).unwrap()[0].reference).unwrap();
+    let reference = load_image(&reference_file(&out, &finished_runs(&out).unwrap()[0])).unwrap();
     let settings = scene["settings"].as_array().unwrap();
     assert_eq!(settings.len(), 9);
     let budgets: Vec<&str> = settings

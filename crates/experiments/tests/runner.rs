@@ -4,7 +4,7 @@
 
 use lightlab_core::NoProgress;
 use lightlab_experiments::reference::{cache_path, load_image};
-use lightlab_experiments::report::{finished_runs, plot_from_csv};
+use lightlab_experiments::report::{finished_runs, plot_from_csv, write_report};
 use lightlab_experiments::runner::{RunOptions, RunRecord, merge, run_experiment};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -301,6 +301,26 @@ fn correlated_reference_variance_is_not_subtracted() {
     for r in finished_runs(&o.out_dir).unwrap() {
         assert_eq!(r.errors.reference_variance, 0.0, "{}", r.id);
     }
+    // The summary's bias² and variance are measured against the reference as the runs were:
+    // bias² + variance is the mean MSE (the report once reloaded the cached reference with its
+    // variance, and bias² came out negative).
+    assert_bias_and_variance_sum_to_mse(&o.out_dir);
+    // Moved elsewhere, with the cache gone, the results rebuild to the same summary (they keep
+    // the reference they were measured against); without a run's image nothing is rewritten.
+    let summary = std::fs::read(o.out_dir.join("summary.json")).unwrap();
+    let moved = dir.join("moved");
+    std::fs::rename(&o.out_dir, &moved).unwrap();
+    std::fs::remove_dir_all(dir.join("results")).unwrap();
+    write_report(&moved).unwrap();
+    assert!(std::fs::read(moved.join("summary.json")).unwrap() == summary);
+    let run = finished_runs(&moved).unwrap().remove(0);
+    std::fs::remove_file(moved.join("runs").join(&run.id).join("image.exr")).unwrap();
+    let err = write_report(&moved).unwrap_err().to_string();
+    assert!(
+        err.contains("image.exr") && err.contains("not rewritten"),
+        "{err}"
+    );
+    assert!(std::fs::read(moved.join("summary.json")).unwrap() == summary);
     // With an independent reference it is subtracted.
     let (exp, dir2) = setup("independent-reference");
     let o = run_experiment(
@@ -317,8 +337,33 @@ fn correlated_reference_variance_is_not_subtracted() {
             .iter()
             .all(|r| r.errors.reference_variance > 0.0)
     );
+    assert_bias_and_variance_sum_to_mse(&o.out_dir);
     std::fs::remove_dir_all(dir).unwrap();
     std::fs::remove_dir_all(dir2).unwrap();
+}
+
+/// bias² + variance = mean MSE over each setting's trials, to rounding (both subtract the same
+/// reference variance; see `metrics::bias_variance`).
+fn assert_bias_and_variance_sum_to_mse(out_dir: &Path) {
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).unwrap())
+            .unwrap();
+    let records = finished_runs(out_dir).unwrap();
+    for s in summary["settings"].as_array().unwrap() {
+        let mses: Vec<f64> = records
+            .iter()
+            .filter(|r| r.method == s["method"] && r.setting == s["setting"])
+            .map(|r| r.errors.mse)
+            .collect();
+        let mse = mses.iter().sum::<f64>() / mses.len() as f64;
+        let sum = s["bias2"].as_f64().unwrap() + s["variance"].as_f64().unwrap();
+        assert!(
+            (sum - mse).abs() <= 1e-9 * mse.abs(),
+            "{} {}: bias² + variance = {sum}, mean MSE {mse}",
+            s["method"],
+            s["setting"]
+        );
+    }
 }
 
 /// summary.json: efficiency is 1/(mean MSE × mean time) of the setting's trials (not the mean of
