@@ -631,6 +631,13 @@ fn impossible_motion() {
         6,
         &["moving shapes reach", "while the shutter is open"],
     );
+    // A pivot or translation beyond f32 (kept in f32; it panicked when converted).
+    for motion in [
+        "Motion(pivot: (1e39, 0, 0), keys: [Key(time: 0), Key(time: 1)])",
+        "Motion(keys: [Key(time: 0), Key(time: 1, translate: (0, 1e300, 0))])",
+    ] {
+        assert_error(&shape(motion), 6, &["within ±3.4", "e3"]);
+    }
     // Emitters stay at rest: light sampling and emission use them there.
     assert_error(
         &format!(

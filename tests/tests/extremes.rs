@@ -235,3 +235,41 @@ fn focus_at_the_farthest_plane_is_focus_at_infinity() {
         assert!(m.iter().sum::<f64>() > 0.1, "{config}: dark, {m:?}");
     }
 }
+
+/// Directions given at any magnitude mean the same: a directional light's direction, a spot's
+/// axis and the camera's view at 10²⁰⁰ times unit length (the directional light also at 10⁻²⁰⁰)
+/// render bit for bit as at unit length. Before, the squared length overflowed f64 and the
+/// direction normalised to zero (black images), or underflowed and was refused as zero.
+#[test]
+fn directions_at_any_magnitude_render_alike() {
+    let text = |view: &str, axis: &str, direction: &str| {
+        format!(
+            "Scene(camera: Camera(eye: (0, 2, 2), target: {view}, fov: 40, resolution: (6, 6)),
+                materials: {{ \"w\": Diffuse(albedo: (0.5, 0.5, 0.5)) }},
+                shapes: [ Shape(geometry: Quad(corner: (-5, -1, -5), edge1: (0, 0, 10), edge2: (10, 0, 0)), material: \"w\") ],
+                lights: [ Directional(direction: {direction}, irradiance: (1, 1, 1)),
+                          Spot(position: (0, 2, 0), target: {axis}, intensity: (4, 4, 4), cone_angle: 60) ])"
+        )
+    };
+    // Camera and spot targets are positions: their differences from the eye and the spot's
+    // position are (0, −1, −1) and (0, −1, 1) times 1 or 10²⁰⁰.
+    let unit = scene(&text("(0, 1, 1)", "(0, 1, 1)", "(1, -1, -1)"));
+    let huge = scene(&text(
+        "(0, -1e200, -1e200)",
+        "(0, -1e200, 1e200)",
+        "(1e200, -1e200, -1e200)",
+    ));
+    let tiny = scene(&text(
+        "(0, 1, 1)",
+        "(0, 1, 1)",
+        "(1e-200, -1e-200, -1e-200)",
+    ));
+    let want = render(&unit, "Path()", 4, 1);
+    assert!(image_mean(&want.film).0[0] > 0.01, "the unit scene is dark");
+    for (what, sc) in [("10²⁰⁰", huge), ("10⁻²⁰⁰", tiny)] {
+        assert!(
+            render(&sc, "Path()", 4, 1).film.pixels == want.film.pixels,
+            "directions at {what} render differently"
+        );
+    }
+}

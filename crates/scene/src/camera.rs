@@ -41,7 +41,7 @@ pub struct Camera {
 impl Camera {
     /// The camera of `d` in render space: positions moved by −`origin` (see `load`).
     pub fn new(d: &CameraDesc, origin: glam::DVec3) -> Camera {
-        let forward = (d.target - d.eye).normalize().as_vec3();
+        let forward = crate::desc::unit(d.target - d.eye).as_vec3();
         // `up` normalised in f64 first: its f32 squared length may under- or overflow.
         let right = forward
             .cross(d.up.as_dvec3().normalize().as_vec3())

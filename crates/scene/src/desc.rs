@@ -121,14 +121,18 @@ impl TryFrom<CameraRaw> for CameraDesc {
         finite_dvec("camera eye", c.eye)?;
         finite_dvec("camera target", c.target)?;
         finite_vec("camera up", c.up)?;
-        let view = (c.target - c.eye).as_vec3();
-        if view.length_squared() == 0.0 || !view.is_finite() {
+        let view = c.target - c.eye;
+        if view == DVec3::ZERO || !view.is_finite() {
             return Err("camera eye and target coincide: the view direction is undefined".into());
         }
-        // In f64: an up vector of (0, 1e-30, 0) or (0, 3e38, 3e38) under- or overflows f32's
-        // squared length and was called zero or parallel.
-        let up = c.up.as_dvec3().normalize_or_zero();
-        if view.as_dvec3().normalize().cross(up).length() < 1e-6 {
+        // In f64 and scaled (`unit`): an up vector of (0, 1e-30, 0) or (0, 3e38, 3e38) under- or
+        // overflows f32's squared length and was called zero or parallel.
+        let up = if c.up == glam::Vec3::ZERO {
+            DVec3::ZERO
+        } else {
+            unit(c.up.as_dvec3())
+        };
+        if unit(view).cross(up).length() < 1e-6 {
             return Err("camera up is zero or parallel to the view direction".into());
         }
         if !(c.fov >= MIN_FOV && c.fov < 180.0) {
@@ -716,7 +720,7 @@ pub struct KeyDesc {
 impl TryFrom<MotionRaw> for MotionDesc {
     type Error = String;
     fn try_from(m: MotionRaw) -> Result<Self, String> {
-        finite_dvec("motion pivot", m.pivot)?;
+        single_precision_dvec("motion pivot", m.pivot)?;
         if m.keys.len() < 2 {
             return Err(format!(
                 "a Motion needs at least two keys, got {}",
@@ -727,7 +731,7 @@ impl TryFrom<MotionRaw> for MotionDesc {
             if !k.time.is_finite() {
                 return Err(format!("motion key time must be finite, got {}", k.time));
             }
-            finite_dvec("motion key translate", k.translate)?;
+            single_precision_dvec("motion key translate", k.translate)?;
             for r in &k.rotate {
                 finite_vec("rotation axis", r.axis)?;
                 if r.axis.length_squared() == 0.0 || !r.degrees.is_finite() {
@@ -1135,7 +1139,7 @@ impl TryFrom<LightRaw> for LightDesc {
             } => {
                 finite_dvec("Spot position", position)?;
                 finite_dvec("Spot target", target)?;
-                if (target - position).length_squared() == 0.0 {
+                if target == position {
                     return Err("Spot target equals its position: the axis is undefined".into());
                 }
                 emitted_rgb("Spot intensity", intensity)?;
@@ -1157,7 +1161,7 @@ impl TryFrom<LightRaw> for LightDesc {
                 irradiance,
             } => {
                 finite_dvec("Directional direction", direction)?;
-                if direction.length_squared() == 0.0 {
+                if direction == DVec3::ZERO {
                     return Err("Directional direction must be non-zero".into());
                 }
                 emitted_rgb("Directional irradiance", irradiance)?;
@@ -1196,6 +1200,26 @@ fn finite_dvec(what: &str, v: DVec3) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!("{what} must be finite, got {}", fmt3(v)))
+    }
+}
+
+/// `v` (finite, non-zero) at unit length, whatever its magnitude: scaled by its largest
+/// component first, so that the squared length neither overflows (a direction of (1e200, −1e200,
+/// 0) had normalised to zero: a black image) nor underflows.
+pub(crate) fn unit(v: DVec3) -> DVec3 {
+    (v / v.abs().max_element()).normalize()
+}
+
+/// Finite and within f32's range: a motion's pivot and translations are kept in f32.
+fn single_precision_dvec(what: &str, v: DVec3) -> Result<(), String> {
+    if v.is_finite() && v.abs().max_element() <= f32::MAX as f64 {
+        Ok(())
+    } else {
+        Err(format!(
+            "{what} must be finite and within ±{:e}, got {}",
+            f32::MAX,
+            fmt3(v)
+        ))
     }
 }
 

@@ -549,7 +549,7 @@ fn light(l: &LightDesc, origin: DVec3) -> Light {
             profile,
         } => Light::Spot {
             position: (position - origin).as_vec3(),
-            axis: (target - position).normalize().as_vec3(),
+            axis: crate::desc::unit(target - position).as_vec3(),
             intensity,
             cos_total: cone_angle.to_radians().cos(),
             cos_falloff_start: falloff_start.unwrap_or(cone_angle).to_radians().cos(),
@@ -563,7 +563,7 @@ fn light(l: &LightDesc, origin: DVec3) -> Light {
             direction,
             irradiance,
         } => Light::Directional {
-            direction: direction.normalize().as_vec3(),
+            direction: crate::desc::unit(direction).as_vec3(),
             irradiance,
         },
         LightRaw::EnvironmentMap { .. } => unreachable!("environment maps are built by the loader"),
