@@ -266,7 +266,8 @@ const TILE: u32 = 16;
 /// With splats, sample indices rendered concurrently are raised until there are this many work
 /// items per pass (small images)…
 const MIN_ITEMS: usize = 64;
-/// …as long as their per-pixel buffers hold at most this many pixel slots.
+/// …as long as their per-pixel buffers hold at most this many pixel slots; without splats, a
+/// pass buffers at most this many per-sample tile sums.
 const MAX_BUFFERED: usize = 1 << 22;
 
 /// Renders pass after pass as `schedule` decides, calling `sample(x, y, index, sink, counters,
@@ -302,6 +303,15 @@ where
     F: Fn(u32, u32, u64, &mut Sink, &mut Counters, &mut E) + Sync,
 {
     drive(spec, router, schedule, on_pass, Some(begin), sample)
+}
+
+/// Samples per pass without splats. Each tile keeps its per-sample image sums (per slot and
+/// photon group) until the pass ends, so a pass holds at most [`MAX_BUFFERED`] of them: one pass of
+/// all 2³² − 1 samples asked for 10¹¹ bytes and aborted, and a million samples of a 256² image for
+/// 6 GB. Splitting passes changes no result (a pixel's samples add up in index order either way).
+fn pixel_pass_samples(tiles: usize, slots: usize, groups: usize) -> u32 {
+    let per_sample = tiles * slots * (1 + groups);
+    (MAX_BUFFERED / per_sample.max(1)).clamp(1, u32::MAX as usize) as u32
 }
 
 /// Work run before a pass, with its 0-based number.
@@ -340,7 +350,7 @@ where
         let by_memory = (MAX_BUFFERED / (pixels * spec.slots).max(1)).max(1);
         by_items.min(by_memory) as u32
     } else {
-        u32::MAX
+        pixel_pass_samples(tiles.len(), spec.slots, spec.groups)
     };
     let mut done = 0u32;
     while let Some(n) = schedule.next_pass(done, preferred) {
@@ -694,7 +704,22 @@ fn splat_pass<E, F>(
 
 #[cfg(test)]
 mod tests {
-    use super::timed_pass;
+    use super::{MAX_BUFFERED, pixel_pass_samples, timed_pass};
+
+    /// A pass's per-sample buffers stay within MAX_BUFFERED entries (about 100 MB) for any image,
+    /// while one-tile images still render many samples per pass; never zero samples.
+    #[test]
+    fn pixel_passes_buffer_a_bounded_number_of_samples() {
+        for (tiles, slots, groups) in [(1, 1, 0), (256, 1, 0), (65536, 4, 3), (1 << 24, 8, 0)] {
+            let n = pixel_pass_samples(tiles, slots, groups) as usize;
+            assert!(n >= 1);
+            assert!(
+                n == 1 || n * tiles * slots * (1 + groups) <= MAX_BUFFERED,
+                "{tiles} tiles: {n} samples per pass"
+            );
+        }
+        assert_eq!(pixel_pass_samples(1, 1, 0), 1 << 22);
+    }
     use lightlab_samplers::{Independent, Sampler};
 
     /// A render on a simulated clock under a time budget of `seconds`: every sample index gives
