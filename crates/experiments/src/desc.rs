@@ -319,6 +319,20 @@ impl ExperimentDesc {
                         ),
                     );
                 }
+                Axis::LogRange {
+                    field,
+                    from,
+                    to,
+                    factor,
+                } if (to / from).ln() / factor.ln() >= MAX_AXIS_VALUES as f64 => {
+                    return err(
+                        &format!("\"{field}\""),
+                        format!(
+                            "LogRange {field:?} from {from} to {to} by {factor} has more than \
+                             {MAX_AXIS_VALUES} values: raise the factor"
+                        ),
+                    );
+                }
                 _ => {}
             }
             for v in a.values() {
@@ -356,6 +370,21 @@ impl ExperimentDesc {
                 "at most one budget axis (spp or seconds) per experiment".into(),
             );
         }
+        let settings = self
+            .sweep
+            .iter()
+            .fold(1f64, |n, a| n * a.values().len() as f64);
+        let runs = self.scenes.len() as f64 * self.methods.len() as f64 * settings;
+        if runs * self.trials as f64 > MAX_RUNS as f64 {
+            return err(
+                "trials",
+                format!(
+                    "{} trials of {runs} settings make more than {MAX_RUNS} runs: an experiment \
+                     holds at most that many (split it, or take fewer trials or sweep values)",
+                    self.trials
+                ),
+            );
+        }
         Ok(())
     }
 }
@@ -369,6 +398,11 @@ fn check_budget(b: &BudgetDesc) -> Result<(), String> {
         _ => Ok(()),
     }
 }
+
+/// Most values an axis may take (`validate` refuses more; `values` stops just past it).
+const MAX_AXIS_VALUES: usize = 10_000;
+/// Most runs an experiment may hold (each run is a directory of files).
+const MAX_RUNS: usize = 1_000_000;
 
 impl Axis {
     pub fn field(&self) -> &str {
@@ -388,7 +422,7 @@ impl Axis {
                 let mut out: Vec<Value> = Vec::new();
                 let mut x = from;
                 // Relative slack so that e.g. 1·2¹² still counts as ≤ 4096 after rounding.
-                while x <= to * (1.0 + 1e-9) && out.len() < 10_000 {
+                while x <= to * (1.0 + 1e-9) && out.len() <= MAX_AXIS_VALUES {
                     let v = if integer {
                         Value::Int(x.round() as i64)
                     } else {
@@ -456,6 +490,18 @@ mod tests {
                 GOOD.replace("factor: 4", "factor: 1"),
                 "e.ron:9:",
                 "factor > 1",
+            ),
+            // A sweep too long to hold (values() once stopped at 10 000 without a word), and
+            // more runs than an experiment holds (10⁸ trials aborted on a 1.5 GB allocation).
+            (
+                GOOD.replace("to: 64, factor: 4", "to: 1e9, factor: 1.001"),
+                "e.ron:9:",
+                "more than 10000 values",
+            ),
+            (
+                GOOD.replace("trials: 3", "trials: 100000000"),
+                "e.ron:10:",
+                "more than 1000000 runs",
             ),
             (
                 GOOD.replace("spp: 64)", "spp: 0)"),
