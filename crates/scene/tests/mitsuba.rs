@@ -234,6 +234,29 @@ fn includes_and_references_resolve() {
     .unwrap();
     let e = import(&d.join("loop.xml"), &[]).unwrap_err();
     assert!(e.to_string().contains("includes itself"), "{e}");
+    // …also through a path that names it another way (it recursed 584 levels deep before).
+    std::fs::create_dir_all(d.join("sub")).unwrap();
+    std::fs::write(
+        d.join("dotdot.xml"),
+        r#"<scene version="3.0.0"><include filename="sub/../dotdot.xml"/></scene>"#,
+    )
+    .unwrap();
+    let e = import(&d.join("dotdot.xml"), &[]).unwrap_err();
+    assert!(e.to_string().contains("includes itself"), "{e}");
+    // A chain of files each including the next twice (2^depth reads) stops at the include limit.
+    for k in 0..16 {
+        std::fs::write(
+            d.join(format!("twice{k}.xml")),
+            format!(
+                r#"<scene version="3.0.0"><include filename="twice{0}.xml"/><include filename="twice{0}.xml"/></scene>"#,
+                k + 1
+            ),
+        )
+        .unwrap();
+    }
+    std::fs::write(d.join("twice16.xml"), r#"<scene version="3.0.0"/>"#).unwrap();
+    let e = import(&d.join("twice0.xml"), &[]).unwrap_err();
+    assert!(e.to_string().contains("more than 4096 files"), "{e}");
     let (_, _, m) = err(
         "missing-ref",
         &format!("{SENSOR}<shape type=\"sphere\"><ref id=\"nope\"/></shape>"),

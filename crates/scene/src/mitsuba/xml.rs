@@ -148,13 +148,32 @@ impl Params {
 
 /// Reads `path` (a `<scene>` file) and the files it includes into the list of the scene's elements.
 pub(crate) fn read_scene(path: &Path, params: &mut Params) -> Result<Vec<Element>, SceneError> {
-    read_file(path, params, &mut vec![path.to_path_buf()])
+    let mut includes = Includes {
+        stack: vec![canonical(path)],
+        files: 1,
+    };
+    read_file(path, params, &mut includes)
+}
+
+/// Most files one scene may read through `<include>`s: a chain of files each including the next
+/// twice, a few kilobytes in all, expands to 2^depth copies (2²⁰ took 15 s and 1.5 GB).
+const MAX_INCLUDED_FILES: usize = 4096;
+
+/// The files being read, outermost first (canonical: `sub/../a.xml` is `a.xml`, so a cycle
+/// through it is found), and how many have been read.
+struct Includes {
+    stack: Vec<PathBuf>,
+    files: usize,
+}
+
+fn canonical(path: &Path) -> PathBuf {
+    path.canonicalize().unwrap_or_else(|_| path.to_path_buf())
 }
 
 fn read_file(
     path: &Path,
     params: &mut Params,
-    stack: &mut Vec<PathBuf>,
+    includes: &mut Includes,
 ) -> Result<Vec<Element>, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
         path: path.to_path_buf(),
@@ -228,18 +247,31 @@ fn read_file(
                     &at,
                 )?;
                 let included = path.parent().unwrap_or(Path::new(".")).join(&name);
-                if stack.contains(&included) {
-                    return Err(at.error(format!("{name} includes itself (directly or not)")));
-                }
                 if !included.is_file() {
                     return Err(at.error(format!(
-                        "included file {} does not exist",
-                        included.display()
+                        "included file {} {}",
+                        included.display(),
+                        if included.exists() {
+                            "is not a file"
+                        } else {
+                            "does not exist"
+                        }
                     )));
                 }
-                stack.push(included.clone());
-                elements.extend(read_file(&included, params, stack)?);
-                stack.pop();
+                let key = canonical(&included);
+                if includes.stack.contains(&key) {
+                    return Err(at.error(format!("{name} includes itself (directly or not)")));
+                }
+                includes.files += 1;
+                if includes.files > MAX_INCLUDED_FILES {
+                    return Err(at.error(format!(
+                        "the scene reads more than {MAX_INCLUDED_FILES} files through <include> \
+                         (files including others more than once multiply)"
+                    )));
+                }
+                includes.stack.push(key);
+                elements.extend(read_file(&included, params, includes)?);
+                includes.stack.pop();
             }
             _ => elements.push(element(node, params, &locate, 1)?),
         }
