@@ -387,9 +387,18 @@ fn bad_camera() {
     }
     // Extremes f32 cannot carry, which rendered wrong without a word: a subnormal field of view
     // (BDPT −5.6 %), a lens whose area underflows (light tracing lost 98 %), a plane of focus
-    // farther than any shape can be.
+    // farther than any shape can be, and lenses whose rays or area overflow (black images with a
+    // count of non-finite samples).
     for (camera, words) in [
         ("fov: 1e-44", "fov must be in [1e-6, 180)"),
+        (
+            "fov: 40, lens: ThinLens(aperture_radius: 1e20, focus_distance: 1)",
+            "aperture_radius must be at most 1e9",
+        ),
+        (
+            "fov: 40, lens: ThinLens(aperture_radius: 0.01, focus_distance: 1e-22)",
+            "aperture_radius / focus_distance must be at most 1e12",
+        ),
         (
             "fov: 40, lens: ThinLens(aperture_radius: 1e-19, focus_distance: 1)",
             "aperture_radius must be ≥ 1e-15",

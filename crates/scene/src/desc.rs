@@ -164,11 +164,25 @@ impl TryFrom<CameraRaw> for CameraDesc {
                      {aperture_radius}: use Pinhole for a pinhole"
                 ));
             }
+            if aperture_radius > MAX_APERTURE {
+                return Err(format!(
+                    "ThinLens aperture_radius must be at most {MAX_APERTURE:e} (shapes reach at \
+                     most 1e9 from the scene's centre; at 1e20 the lens area overflows f32 and \
+                     every camera ray is lost), got {aperture_radius}"
+                ));
+            }
             if !(focus_distance > 0.0 && focus_distance <= MAX_FOCUS) {
                 return Err(format!(
                     "ThinLens focus_distance must be in (0, {MAX_FOCUS:e}] (shapes reach at most \
                      1e9 from the scene's centre, so a plane of focus farther than that is focus \
                      at infinity already), got {focus_distance}"
+                ));
+            }
+            if aperture_radius / focus_distance > MAX_LENS_SLOPE {
+                return Err(format!(
+                    "ThinLens aperture_radius / focus_distance must be at most {MAX_LENS_SLOPE:e} \
+                     (beyond, a lens ray's direction overflows f32 and every camera ray is lost), \
+                     got {aperture_radius} / {focus_distance}"
                 ));
             }
         }
@@ -574,6 +588,13 @@ const MIN_APERTURE: f32 = 1e-15;
 
 /// The farthest plane of focus.
 const MAX_FOCUS: f32 = 1e20;
+
+/// The widest thin-lens aperture radius: the scene's extent (π r² overflowed f32 at 10²⁰).
+const MAX_APERTURE: f32 = 1e9;
+
+/// The largest aperture_radius / focus_distance: a lens ray's direction dir − l/F (camera space)
+/// and its squared length stay far inside f32 (at 10²⁰ every camera ray was non-finite).
+const MAX_LENS_SLOPE: f32 = 1e12;
 
 /// The largest Phong exponent: at 10⁷ a sphere's albedo is still the converged one; from about
 /// 10⁹ on, a sampled direction's round trip through the shading frame moves cos α by 10⁻⁷ and
