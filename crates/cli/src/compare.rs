@@ -102,11 +102,19 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
     let a = load_foreign(&args.a, args.layer_a.as_deref(), args.variance_a.as_deref())?;
     let b = load_foreign(&args.b, args.layer_b.as_deref(), args.variance_b.as_deref())?;
     // A NaN or an infinity makes every statistic NaN or infinite: say where instead.
-    for (path, image) in [(&args.a, &a), (&args.b, &b)] {
+    for (path, variance, image) in [
+        (&args.a, &args.variance_a, &a),
+        (&args.b, &args.variance_b, &b),
+    ] {
         image.check_finite().map_err(|e| {
+            // A variance from a separate file is that file's fault.
+            let file = match variance {
+                Some(v) if e.starts_with("the variance") => v,
+                _ => path,
+            };
             format!(
                 "{}: {e}; compare needs finite values (and variances ≥ 0)",
-                path.display()
+                file.display()
             )
         })?;
     }

@@ -606,6 +606,12 @@ fn compare_two_renders() {
             && err.contains("(3, 1)"),
         "{out}{err}"
     );
+    // A NaN in a variance given as a file of its own names that file, not the image.
+    let (code, out, err) = run(&["a.exr", "a.exr", "--variance-a", "nan.exr"]);
+    assert!(
+        code == Some(1) && err.contains("nan.exr: the variance of 1 pixels"),
+        "{out}{err}"
+    );
     std::fs::remove_dir_all(dir).ok();
 }
 

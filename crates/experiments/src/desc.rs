@@ -260,6 +260,17 @@ impl ExperimentDesc {
             ReferenceDesc::Render { spp, .. } if *spp == 0 => {
                 return err("reference", "reference spp must be ≥ 1".into());
             }
+            // Checked here, where the error can point into the file, not when it first renders.
+            ReferenceDesc::Render { integrator, .. } => {
+                let checked = lightlab_integrators::IntegratorConfig::from_ron(integrator)
+                    .and_then(|c| c.build().map(|_| ()));
+                if let Err(e) = checked {
+                    return err(
+                        &format!("{integrator:?}"),
+                        format!("reference integrator {integrator}: {e}"),
+                    );
+                }
+            }
             _ => {}
         }
         if self.methods.is_empty() {
@@ -490,6 +501,18 @@ mod tests {
                 GOOD.replace("factor: 4", "factor: 1"),
                 "e.ron:9:",
                 "factor > 1",
+            ),
+            // The reference's integrator is located in the file too (it was reported without a
+            // position when the reference first rendered).
+            (
+                GOOD.replace("\"Path()\", spp: 64", "\"Path(\", spp: 64"),
+                "e.ron:4:",
+                "reference integrator Path(",
+            ),
+            (
+                GOOD.replace("\"Path()\", spp: 64", "\"Path(max_bounces: -1)\", spp: 64"),
+                "e.ron:4:",
+                "reference integrator",
             ),
             // A sweep too long to hold (values() once stopped at 10 000 without a word), and
             // more runs than an experiment holds (10⁸ trials aborted on a 1.5 GB allocation).
