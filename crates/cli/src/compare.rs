@@ -1,7 +1,7 @@
 //! `lightlab compare`: one EXR image against another (pbrt-v4's `imgtool diff`).
 
 use clap::Args;
-use lightlab_experiments::compare::{Region, compare, error_layers};
+use lightlab_experiments::compare::{FEW_EFFECTIVE_SAMPLES, Region, ZTest, compare, error_layers};
 use lightlab_experiments::image_io::write_exr;
 use lightlab_experiments::reference::load_foreign;
 use std::path::PathBuf;
@@ -86,6 +86,21 @@ fn samples(stats: Option<&serde_json::Value>, given: Option<u64>) -> Option<u64>
         (stats["pixel_variance"] == "Independent")
             .then(|| stats["spp"].as_u64())
             .flatten()
+    })
+}
+
+/// What to make of disagreeing channels whose variance rests on a few samples.
+fn few_samples_caution(z: &ZTest) -> Option<String> {
+    (z.exceeding_on_few_samples > 0).then(|| {
+        format!(
+            "{} of the {} channels beyond the critical value rest on fewer than {FEW_EFFECTIVE_SAMPLES} \
+             effective samples (mean² / variance of the mean) in an image: a variance from so few \
+             contributions is usually too small for an estimator with rare large samples (small \
+             lights by BSDF sampling, caustics by path tracing, sub-pixel features), so they may be \
+             false alarms; render more samples, compare the mean ratio, or look at the z image \
+             (--error)",
+            z.exceeding_on_few_samples, z.exceeding
+        )
     })
 }
 
@@ -195,12 +210,14 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
     let normal =
         c.z.as_ref()
             .is_some_and(|z| z.min_degrees_of_freedom.is_none());
+    let few = c.z.as_ref().and_then(few_samples_caution);
     if args.json {
         let mut value = serde_json::to_value(&c).expect("comparison serialises");
         let cautions = variance_cautions
             .iter()
             .map(String::as_str)
-            .chain(normal.then_some(NORMAL_APPROXIMATION));
+            .chain(normal.then_some(NORMAL_APPROXIMATION))
+            .chain(few.as_deref());
         value["cautions"] = serde_json::json!(cautions.collect::<Vec<_>>());
         println!(
             "{}",
@@ -230,7 +247,7 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
                     z.alpha,
                     z.chi2_p_value
                 );
-                for caution in &variance_cautions {
+                for caution in variance_cautions.iter().chain(&few) {
                     println!("caution: {caution}");
                 }
                 match z.min_degrees_of_freedom {

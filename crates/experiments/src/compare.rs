@@ -73,6 +73,29 @@ pub struct ZTest {
     /// images' samples per pixel are known (the z are then t-corrected); `None`: normal
     /// approximation.
     pub min_degrees_of_freedom: Option<f64>,
+    /// Of the channels beyond the critical value, those where an image's value rests on fewer than
+    /// [`FEW_EFFECTIVE_SAMPLES`] effective samples (see [`effective_samples`]): there its variance
+    /// is itself too noisy to test against, and for a heavy-tailed estimator usually too small.
+    pub exceeding_on_few_samples: usize,
+}
+
+/// Below this many effective samples a pixel's variance estimate is not trusted to scale a z.
+pub const FEW_EFFECTIVE_SAMPLES: f64 = 10.0;
+
+/// mean² / variance of the mean: for a value made of rare contributions of similar size (a small
+/// light found by BSDF sampling, a caustic found by path tracing, a sub-pixel feature) about the
+/// number of samples that contributed, since a mean p·Y of n samples that are Y with probability p
+/// has variance p(1 − p)Y²/n. With a handful of contributions s²/n is most often far below the
+/// variance it estimates (its distribution is skewed), and the z-test raises false alarms. A
+/// value with no variance is exact unless it is 0 (every sample missed): 0 effective samples.
+pub fn effective_samples(mean: f64, variance: f64) -> f64 {
+    if variance > 0.0 {
+        mean * mean / variance
+    } else if mean == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    }
 }
 
 impl ZTest {
@@ -181,7 +204,10 @@ pub fn compare(
                             }
                             None => z,
                         };
-                        zs.push((z, i, c));
+                        let few = effective_samples(a.mean[i][c] as f64, vai)
+                            .min(effective_samples(b.mean[i][c] as f64, vbi))
+                            < FEW_EFFECTIVE_SAMPLES;
+                        zs.push((z, i, c, few));
                     }
                 }
             }
@@ -189,7 +215,7 @@ pub fn compare(
                 let per_test = -((-alpha).ln_1p() / zs.len() as f64).exp_m1();
                 let critical = -Normal::standard().inverse_cdf(per_test / 2.0);
                 let sum_sq: f64 = zs.iter().map(|z| z.0 * z.0).sum();
-                let &(zmax, wi, wc) = zs
+                let &(zmax, wi, wc, _) = zs
                     .iter()
                     .max_by(|p, q| p.0.abs().total_cmp(&q.0.abs()))
                     .expect("non-empty");
@@ -204,6 +230,10 @@ pub fn compare(
                     chi2_p_value: ChiSquared::new(zs.len() as f64)
                         .map_or(f64::NAN, |d| d.sf(sum_sq)),
                     min_degrees_of_freedom: counts.map(|_| min_dof),
+                    exceeding_on_few_samples: zs
+                        .iter()
+                        .filter(|z| z.0.abs() > critical && z.3)
+                        .count(),
                 }
             })
         }
@@ -341,6 +371,27 @@ mod tests {
         let layers = error_layers(&off, &exact, &Region::All);
         let names: Vec<&str> = layers.iter().map(|l| l.name.as_str()).collect();
         assert_eq!(names, ["difference", "relative", "z"]);
+    }
+
+    /// Channels beyond the critical value are told apart by how many samples their variance rests
+    /// on: one carried by a single contribution (mean² / variance = 1) or by none (0, variance 0)
+    /// is counted as resting on few, a well-sampled one (10⁴) is not.
+    #[test]
+    fn disagreements_on_few_effective_samples_are_counted() {
+        assert_eq!(effective_samples(0.01, 1e-4), 1.0);
+        assert_eq!(effective_samples(0.0, 0.0), 0.0);
+        assert_eq!(effective_samples(2.0, 0.0), f64::INFINITY);
+        let mut a = image(8, 8, |_| 1.0, Some(1e-4));
+        let mut b = image(8, 8, |_| 1.0, Some(1e-4));
+        // Pixel 3: A found one rare sample, B many; pixel 5: both well sampled, far apart.
+        (a.mean[3], a.variance.as_mut().unwrap()[3]) = ([0.01; 3], [1e-4; 3]);
+        (b.mean[3], b.variance.as_mut().unwrap()[3]) = ([0.5; 3], [1e-6; 3]);
+        b.mean[5] = [2.0; 3];
+        let z = compare(&a, &b, &Region::All, 1e-3, (None, None))
+            .unwrap()
+            .z
+            .unwrap();
+        assert_eq!((z.exceeding, z.exceeding_on_few_samples), (6, 3), "{z:?}");
     }
 
     /// The family-wise false-alarm rate holds at 16 samples per pixel once the z are t-corrected:
