@@ -272,7 +272,6 @@ struct SeriesFit {
     fit: Fit,
 }
 
-/// Rewrites `runs.csv`, `summary.json` and the plots of `out_dir` from its finished runs.
 /// Where the reference run `r` was measured against is: `reference/<scene>.exr` in the output
 /// directory (the image and the variance the errors used), or, for runs recorded before it was
 /// kept there, the path recorded (the cache file, relative to the directory `run` started in).
@@ -298,7 +297,8 @@ pub fn missing_inputs(out_dir: &Path, records: &[RunRecord]) -> Vec<PathBuf> {
         .collect()
 }
 
-/// Rebuilds runs.csv, summary.json, the plots and the report from the finished runs in `out_dir`.
+/// Rewrites `runs.csv`, `summary.json`, the plots and the report of `out_dir` from its finished
+/// runs.
 /// Bias², variance, ꟻLIP and the mean images come from the runs' images and their reference: if
 /// one is missing or unreadable nothing but runs.csv is rewritten, and the error says which.
 pub fn write_report(out_dir: &Path) -> io::Result<()> {
