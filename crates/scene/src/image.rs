@@ -4,8 +4,9 @@ use lightlab_core::Rgb;
 use std::path::Path;
 
 /// The most memory an image may take decoded (the `image` crate's default, 512 MiB, refused
-/// 16384 × 8192 environment maps): above it a corrupt header's dimensions would exhaust memory.
-const MAX_DECODED_BYTES: u64 = 16 << 30;
+/// 16384 × 8192 environment maps, 1.5 GiB): above it a corrupt header's dimensions would exhaust
+/// memory (the texels are copied twice more on their way to the scene).
+const MAX_DECODED_BYTES: u64 = 4 << 30;
 
 /// An image as linear RGB: width, height and texels row by row from the top.
 pub(crate) type RgbImage = (usize, usize, Vec<Rgb>);
@@ -202,7 +203,7 @@ mod tests {
         )
         .unwrap();
         let err = read_rgb_image(&huge, false).unwrap_err();
-        assert!(err.contains("more than 16 GiB"), "{err}");
+        assert!(err.contains("more than 4 GiB"), "{err}");
         let empty = dir().join("empty.hdr");
         std::fs::write(&empty, b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n").unwrap();
         let err = read_rgb_image(&empty, false).unwrap_err();
