@@ -374,6 +374,10 @@ fn bad_camera() {
         "{e}"
     );
     assert!(bad("camera: Camera(eye: (0, 0, 3), target: (0, 0, 0), up: (0, 0, 1), fov: 40, resolution: (8, 8))").contains("parallel"));
+    // An eye beyond f32 was blamed on a shape's vertex ("NaN or infinite coordinate").
+    let e =
+        bad("camera: Camera(eye: (0, 0, 3e200), target: (0, 0, 0), fov: 40, resolution: (8, 8))");
+    assert!(e.contains("camera eye must be finite and within"), "{e}");
     // An up vector is a direction: its length does not matter, however far from 1.
     for up in ["(0, 1e-30, 0)", "(0, 3e38, 3e38)"] {
         let text = format!(

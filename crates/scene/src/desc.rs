@@ -118,7 +118,8 @@ pub enum Lens {
 impl TryFrom<CameraRaw> for CameraDesc {
     type Error = String;
     fn try_from(c: CameraRaw) -> Result<Self, String> {
-        finite_dvec("camera eye", c.eye)?;
+        // The eye is a position the renderer holds in f32 (the target only fixes a direction).
+        single_precision_dvec("camera eye", c.eye)?;
         finite_dvec("camera target", c.target)?;
         finite_vec("camera up", c.up)?;
         let view = c.target - c.eye;
