@@ -24,6 +24,31 @@ fn across_trials(config: &str) -> bool {
 /// An image average and its standard error.
 type MeanSe = ([f64; 3], [f64; 3]);
 
+/// Each class layer's image average and standard error under `config`, and the critical value
+/// for one of `tests` tests: across `seeds` seeds (Student t) for integrators without a standard
+/// error of their own (`across_trials`), else from one render's (normal).
+fn class_estimates(
+    sc: &lightlab_scene::Scene,
+    config: &str,
+    spp: u32,
+    classes: &[&str],
+    seeds: u64,
+    tests: u64,
+) -> (Vec<MeanSe>, f64) {
+    if across_trials(config) {
+        // Entry 0 is the whole image, then the layers in order.
+        let all = across_seeds(sc, config, spp, seeds);
+        (
+            all[1..=classes.len()].to_vec(),
+            t_critical(sidak(1e-3, tests), (seeds - 1) as f64),
+        )
+    } else {
+        let out = render(sc, config, spp, 2);
+        let got = classes.iter().map(|c| image_mean(layer(&out, c))).collect();
+        (got, z_critical(sidak(1e-3, tests)))
+    }
+}
+
 fn crit() -> f64 {
     z_critical(sidak(1e-3, TESTS))
 }
@@ -206,14 +231,8 @@ fn caustic_classes_agree_between_methods() {
         ),
     ] {
         let config = format!("{method}, {classes})");
-        let (estimates, crit) = if across_trials(&config) {
-            let all = across_seeds(&sc, &config, spp, 8);
-            (all[1..4].to_vec(), t_critical(sidak(1e-3, TESTS), 7.0))
-        } else {
-            let out = render(&sc, &config, spp, 2);
-            let classes = ["LS+DE", "LDE", "LE"].map(|c| image_mean(layer(&out, c)));
-            (classes.to_vec(), crit())
-        };
+        let (estimates, crit) =
+            class_estimates(&sc, &config, spp, &["LS+DE", "LDE", "LE"], 8, TESTS);
         for (class, (m, s)) in ["LS+DE", "LDE", "LE"].into_iter().zip(estimates) {
             let own = if class == "LE" { "Path" } else { "Light" };
             if method.starts_with(own) {
@@ -268,14 +287,7 @@ fn plastic_coating_reflections_are_specular_in_every_method() {
         ),
     ] {
         let config = format!("{method}, {layers})");
-        let (estimates, crit) = if config.starts_with("Vcm(max") || config.contains("Bpm") {
-            let all = across_seeds(&sc, &config, spp, 16);
-            (all[1..].to_vec(), t_critical(sidak(1e-3, tests), 15.0))
-        } else {
-            let out = render(&sc, &config, spp, 2);
-            let got = classes.map(|c| image_mean(layer(&out, c)));
-            (got.to_vec(), z_critical(sidak(1e-3, tests)))
-        };
+        let (estimates, crit) = class_estimates(&sc, &config, spp, &classes, 16, tests);
         for (class, (m, s)) in classes.into_iter().zip(estimates) {
             let want = image_mean(layer(&reference, class));
             assert!(
