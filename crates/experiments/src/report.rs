@@ -383,7 +383,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             None => None,
         };
         let flip_mean = flip.as_ref().map(|f| f.mean);
-        shown.push((mean, flip.map(|f| f.map), images, trial_layers));
+        shown.push((file, mean, flip.map(|f| f.map), images, trial_layers));
         settings.push(SettingSummary {
             scene: scene.clone(),
             method: method.clone(),
@@ -452,10 +452,10 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
 
     // The HTML report: per scene with a reference, its settings in budget order.
     let mut scenes: Vec<html::SceneInput> = Vec::new();
-    for ((((scene, _, _), rs), summary), (mean, flip_map, trial_images, trials)) in
+    for ((((scene, _, _), _), summary), (file, mean, flip_map, trial_images, trials)) in
         groups.iter().zip(&settings).zip(shown)
     {
-        let reference = &references[&reference_file(out_dir, rs[0])];
+        let reference = &references[&file];
         // The further layers averaged over the trials.
         let mut layers = trials.first().cloned().unwrap_or_default();
         for l in &mut layers {
@@ -480,7 +480,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             None => scenes.push(html::SceneInput {
                 name: scene.clone(),
                 reference: reference.clone(),
-                reference_layers: read_exr(&reference_file(out_dir, rs[0]))
+                reference_layers: read_exr(&file)
                     .map(|(_, _, l)| html::extra_layers(l))
                     .unwrap_or_default(),
                 entries: vec![entry],
