@@ -591,11 +591,79 @@ fn mesh_file_errors_name_the_problem() {
             6,
             "normal index is not an integer",
         ),
+        // A byte that is not UTF-8 (`?` written as Latin-1 é below) is located; the error had
+        // no position.
+        (
+            "latin1.obj",
+            "v 0 0 0\nv 1 0 0\n# caf?\nv 0 1 0\nf 1 2 3\n",
+            3,
+            "byte 0xe9 is not UTF-8",
+        ),
     ] {
-        std::fs::write(dir.join("meshes").join(name), body).unwrap();
+        let bytes: Vec<u8> = match name {
+            "latin1.obj" => body
+                .bytes()
+                .map(|b| if b == b'?' { 0xe9 } else { b })
+                .collect(),
+            _ => body.as_bytes().to_vec(),
+        };
+        std::fs::write(dir.join("meshes").join(name), bytes).unwrap();
         let e = load(&format!("meshes/{name}"));
         assert!(
             e.contains(&format!("{name}:{line}:")) && e.contains(words),
+            "{name}: {e}"
+        );
+    }
+    // An emissive mesh whose area overflows f32 (vertices at 10²⁰) was said to have zero area:
+    // the extent check, which names the shape, now comes first.
+    std::fs::write(
+        dir.join("meshes").join("huge.obj"),
+        "v 0 0 0\nv 1e20 0 0\nv 0 1e20 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let text = format!(
+        "Scene(\n{CAMERA},\n{WHITE}\nshapes: [ Shape(geometry: Obj(file: \"meshes/huge.obj\"), \
+         material: \"white\", emission: (radiance: (1, 1, 1))) ],\n)"
+    );
+    let e = parse_scene(&text, &dir.join("s.ron"))
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("s.ron:4:")
+            && e.contains("shape 0 reaches 5.000e19")
+            && !e.contains("zero area"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// A scene file (RON or Mitsuba XML) with a byte that is not UTF-8 is refused at that byte's
+/// line and column; it was refused with no position.
+#[test]
+fn scene_bytes_that_are_not_utf8_are_located() {
+    let dir = std::env::temp_dir().join(format!("lightlab-latin1-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, text, at) in [
+        ("s.ron", "Scene(\n  // caf?\n)", "s.ron:2:9:"),
+        (
+            "s.xml",
+            "<scene version=\"3.0.0\">\n<!-- ?t? -->\n</scene>",
+            "s.xml:2:6:",
+        ),
+    ] {
+        let path = dir.join(name);
+        let bytes: Vec<u8> = text
+            .bytes()
+            .map(|b| if b == b'?' { 0xe9 } else { b })
+            .collect();
+        std::fs::write(&path, bytes).unwrap();
+        let e = match lightlab_scene::load_scene(&path) {
+            Ok(_) => panic!("{name} accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            e.contains(at) && e.contains("byte 0xe9 is not UTF-8"),
             "{name}: {e}"
         );
     }

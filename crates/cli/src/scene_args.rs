@@ -67,8 +67,8 @@ impl SceneArgs {
                 self.scene.display()
             ));
         }
-        let text = std::fs::read_to_string(&self.scene)
-            .map_err(|e| format!("{}: cannot read scene: {e}", self.scene.display()))?;
+        let text =
+            lightlab_scene::text::read_text(&self.scene).map_err(|e| e.located(&self.scene))?;
         let text = lightlab_scene::overrides::apply_overrides(&text, &self.set)?;
         let scene = lightlab_scene::parse_scene(&text, &self.scene).map_err(|e| {
             if self.set.is_empty() {

@@ -87,8 +87,38 @@ pub struct MethodDesc {
     pub integrator: String,
     /// Integrator fields, e.g. `{"max_bounces": 8, "strategy": "Mis"}`. Numbers are written as
     /// numbers; strings are inserted verbatim as RON, so `"Mis"` or `"None"` name enum values.
-    #[serde(default)]
+    /// Each field at most once.
+    #[serde(default, deserialize_with = "unique_keys")]
     pub settings: BTreeMap<String, Value>,
+}
+
+/// A map whose keys are all distinct (serde's own map keeps the last of a repeated key).
+fn unique_keys<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<BTreeMap<String, Value>, D::Error> {
+    struct Unique;
+    impl<'de> serde::de::Visitor<'de> for Unique {
+        type Value = BTreeMap<String, Value>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a map of integrator fields to values")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(
+            self,
+            mut map: A,
+        ) -> Result<Self::Value, A::Error> {
+            let mut out = BTreeMap::new();
+            while let Some((key, value)) = map.next_entry::<String, Value>()? {
+                if out.contains_key(&key) {
+                    return Err(serde::de::Error::custom(format!(
+                        "setting {key:?} is given twice"
+                    )));
+                }
+                out.insert(key, value);
+            }
+            Ok(out)
+        }
+    }
+    d.deserialize_map(Unique)
 }
 
 /// A setting's value.
@@ -170,12 +200,8 @@ impl std::error::Error for ExperimentError {}
 
 /// Reads and checks an experiment file.
 pub fn load_experiment(path: &Path) -> Result<ExperimentDesc, ExperimentError> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        ExperimentError(format!(
-            "{}: cannot read experiment file: {e}",
-            path.display()
-        ))
-    })?;
+    let text =
+        lightlab_scene::text::read_text(path).map_err(|e| ExperimentError(e.located(path)))?;
     parse_experiment(&text, path)
 }
 
@@ -234,6 +260,15 @@ impl ExperimentDesc {
                 ),
             );
         }
+        if self.name == REFERENCE_CACHE {
+            return err(
+                "name",
+                format!(
+                    "name {REFERENCE_CACHE:?} is the directory beside the experiments' results \
+                     where rendered references are cached: choose another name"
+                ),
+            );
+        }
         if self.scenes.is_empty() {
             return err("scenes", "scenes must list at least one scene file".into());
         }
@@ -277,6 +312,13 @@ impl ExperimentDesc {
             return err("methods", "methods must list at least one method".into());
         }
         for (i, m) in self.methods.iter().enumerate() {
+            if m.label.trim().is_empty() {
+                return err(
+                    &format!("\"{}\"", m.label),
+                    "a method label must be non-empty: it names the method in tables and plots"
+                        .into(),
+                );
+            }
             if self.methods[..i].iter().any(|o| o.label == m.label) {
                 return err(
                     &format!("\"{}\"", m.label),
@@ -309,7 +351,30 @@ impl ExperimentDesc {
             );
         }
         check_budget(&self.budget).or_else(|m| err("budget", m))?;
-        for a in &self.sweep {
+        for (i, a) in self.sweep.iter().enumerate() {
+            if self.sweep[..i].iter().any(|o| o.field() == a.field()) {
+                return err(
+                    "sweep",
+                    format!(
+                        "two axes sweep {:?}: give its values on one axis",
+                        a.field()
+                    ),
+                );
+            }
+            if let Axis::Values { field, values } = a
+                && let Some(v) = values
+                    .iter()
+                    .enumerate()
+                    .find_map(|(j, v)| values[..j].contains(v).then_some(v))
+            {
+                return err(
+                    &format!("\"{field}\""),
+                    format!(
+                        "axis {field:?} lists {} twice: its runs would be the same runs",
+                        v.ron()
+                    ),
+                );
+            }
             match a {
                 Axis::Values { field, values } if values.is_empty() => {
                     return err(
@@ -409,6 +474,9 @@ fn check_budget(b: &BudgetDesc) -> Result<(), String> {
         _ => Ok(()),
     }
 }
+
+/// The directory under the results directory where rendered references are cached.
+pub const REFERENCE_CACHE: &str = "references";
 
 /// Most values an axis may take (`validate` refuses more; `values` stops just past it).
 const MAX_AXIS_VALUES: usize = 10_000;
@@ -546,6 +614,43 @@ mod tests {
                 ),
                 "e.ron:11:",
                 "LE is given twice",
+            ),
+            // Accepted before: a name that is the reference cache's directory, an empty label,
+            // a repeated setting (the last one won), a value or a field swept twice.
+            (
+                GOOD.replace("name: \"t\"", "name: \"references\""),
+                "e.ron:2:",
+                "where rendered references are cached",
+            ),
+            (
+                GOOD.replace("label: \"bsdf\"", "label: \" \""),
+                "e.ron:7:",
+                "label must be non-empty",
+            ),
+            (
+                GOOD.replace(
+                    "\"max_bounces\": 3",
+                    "\"max_bounces\": 3, \"max_bounces\": 4",
+                ),
+                "e.ron:6:",
+                "setting \"max_bounces\" is given twice",
+            ),
+            (
+                GOOD.replace(
+                    "LogRange(field: \"spp\", from: 1, to: 64, factor: 4)",
+                    "Values(field: \"spp\", values: [4, 16, 4])",
+                ),
+                "e.ron:9:",
+                "lists 4 twice",
+            ),
+            (
+                GOOD.replace(
+                    "LogRange(field: \"spp\", from: 1, to: 64, factor: 4)",
+                    "Values(field: \"max_bounces\", values: [1]), \
+                     Values(field: \"max_bounces\", values: [2])",
+                ),
+                "e.ron:9:",
+                "two axes sweep \"max_bounces\"",
             ),
         ];
         for (text, at, words) in cases {

@@ -248,8 +248,7 @@ pub fn load_scene(path: &Path, resolution: Option<(u32, u32)>) -> Result<(Scene,
         scene.warnings.extend(imported.notes);
         (scene, text)
     } else {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("{}: cannot read scene: {e}", path.display()))?;
+        let text = lightlab_scene::text::read_text(path).map_err(|e| e.located(path))?;
         let scene = lightlab_scene::parse_scene(&text, path).map_err(|e| e.to_string())?;
         (scene, text)
     };
@@ -326,7 +325,7 @@ pub fn run_experiment(
     let cache_dir = options
         .references
         .clone()
-        .unwrap_or_else(|| options.results.join("references"));
+        .unwrap_or_else(|| options.results.join(crate::desc::REFERENCE_CACHE));
     let found = ExperimentIdentity::read(&out_dir);
     if let Some(found) = &found
         && holds_runs(&out_dir)

@@ -19,6 +19,25 @@ pub enum SceneError {
 }
 
 impl SceneError {
+    /// The error of reading the text file `path`.
+    pub(crate) fn reading(path: &std::path::Path, e: crate::text::TextError) -> SceneError {
+        use crate::text::TextError;
+        let path = path.to_path_buf();
+        match e {
+            TextError::Io(source) => SceneError::Io { path, source },
+            TextError::NotUtf8 { line, col, byte } => SceneError::Invalid {
+                path,
+                line,
+                col,
+                message: format!("byte 0x{byte:02x} is not UTF-8 text (save the file as UTF-8)"),
+            },
+            TextError::TooLarge => SceneError::Io {
+                path,
+                source: std::io::Error::other(TextError::TooLarge.to_string()),
+            },
+        }
+    }
+
     /// An error at the first occurrence of `needle` in `text` (1:1 if absent).
     pub(crate) fn at(
         path: &std::path::Path,

@@ -16,6 +16,7 @@ mod load;
 pub mod mitsuba;
 pub mod overrides;
 mod scene;
+pub mod text;
 mod textures;
 
 pub use camera::{Camera, CameraSample};

@@ -30,10 +30,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         scene.warnings.extend(imported.notes);
         return Ok(scene);
     }
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::text::read_text(path).map_err(|e| SceneError::reading(path, e))?;
     parse_scene(&text, path)
 }
 
@@ -209,6 +206,20 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
             _ => "geometry".into(),
         };
         features.add(&g, origin);
+        // Checked shape by shape, before anything (an emitter's area) overflows.
+        if features.largest > MAX_EXTENT {
+            return Err(SceneError::at(
+                path,
+                text,
+                &needle,
+                format!(
+                    "shape {i} reaches {:.3e} from the scene's centre; render space is f32, \
+                     whose triangle areas and squared distances overflow beyond about \
+                     {MAX_EXTENT:e} (areas came out infinite or NaN): scale the scene down",
+                    features.largest
+                ),
+            ));
+        }
         let geometry = g
             .into_render_space(origin)
             .map_err(|msg| SceneError::at(path, text, &needle, format!("shape {i}: {msg}")))?;
@@ -255,19 +266,6 @@ fn build(desc: SceneDesc, text: &str, path: &Path) -> Result<Scene, SceneError> 
         }
         shapes.push(shape);
         motions.push(s.motion.as_ref().map(|m| motion(m, origin)));
-    }
-    if features.largest > MAX_EXTENT {
-        return Err(SceneError::at(
-            path,
-            text,
-            "shapes",
-            format!(
-                "the shapes reach {:.3e} from the scene's centre; render space is f32, whose \
-                 triangle areas and squared distances overflow beyond about {MAX_EXTENT:e} (areas \
-                 came out infinite or NaN): scale the scene down",
-                features.largest
-            ),
-        ));
     }
     let env = environment_map(&desc.lights, base)
         .map_err(|(needle, msg)| SceneError::at(path, text, &needle, msg))?;
@@ -980,8 +978,8 @@ pub(crate) fn usable_attributes(
 /// Reads an OBJ file's vertex and face lines the way the loader will, so that a malformed line is
 /// reported with its line number (the OBJ loader's own errors have none).
 fn check_obj_syntax(file: &Path) -> Result<(), String> {
-    let text = std::fs::read_to_string(file)
-        .map_err(|e| format!("cannot read mesh file {}: {e}", file.display()))?;
+    let text =
+        crate::text::read_text(file).map_err(|e| format!("mesh file {}", e.located(file)))?;
     // What a face corner `v/vt/vn` refers to: vertices, texture coordinates, normals.
     const KINDS: [&str; 3] = ["vertex", "texture coordinate", "normal"];
     let mut counts = [0usize; 3];

@@ -175,10 +175,7 @@ fn read_file(
     params: &mut Params,
     includes: &mut Includes,
 ) -> Result<Vec<Element>, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::text::read_text(path).map_err(|e| SceneError::reading(path, e))?;
     let file = Rc::new(path.to_path_buf());
     let doc = roxmltree::Document::parse(&text).map_err(|e| {
         let pos = e.pos();
