@@ -547,6 +547,22 @@ mod tests {
         assert_eq!(d.methods[0].settings["max_bounces"], Value::Int(3));
     }
 
+    /// Every experiment shipped in `experiments/` passes the checks (a check added later must not
+    /// refuse a bundled file).
+    #[test]
+    fn bundled_experiments_load() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments");
+        let mut n = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "ron") {
+                load_experiment(&path).unwrap_or_else(|e| panic!("{e}"));
+                n += 1;
+            }
+        }
+        assert!(n >= 10, "{n} experiment files");
+    }
+
     #[test]
     fn errors_name_file_line_and_column() {
         let cases = [
