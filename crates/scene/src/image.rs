@@ -11,7 +11,7 @@ const MAX_DECODED_BYTES: u64 = 4 << 30;
 /// An image as linear RGB: width, height and texels row by row from the top.
 pub(crate) type RgbImage = (usize, usize, Vec<Rgb>);
 
-/// Reads an image file as linear RGB (alpha ignored): OpenEXR (R, G and B channels) and Radiance
+/// Reads an image file as linear RGB (alpha ignored): OpenEXR (R, G and B channels, or Y as grey) and Radiance
 /// HDR as stored; PNG and JPEG (8 or 16 bits per channel, grey replicated) decoded from sRGB
 /// (IEC 61966-2-1) unless `raw`, when their values scaled to [0, 1] are taken as they are.
 /// Mitsuba 3 reads bitmaps the same way. An image without texels is refused.
@@ -88,28 +88,47 @@ pub(crate) fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
-/// The first RGB(A) layer of an OpenEXR file: width, height and linear texels row by row from the
-/// top.
+/// The first RGB(A) layer of an OpenEXR file, or else its first luminance (`Y`) layer as grey:
+/// width, height and linear texels row by row from the top.
 fn read_rgb_exr(path: &Path) -> Result<RgbImage, String> {
     use exr::prelude::*;
-    let image = read_first_rgba_layer_from_file(
+    fn texels(resolution: Vec2<usize>) -> (usize, Vec<Rgb>) {
+        let (w, h) = (resolution.width(), resolution.height());
+        (w, vec![Rgb::BLACK; w * h])
+    }
+    let rgb = read_first_rgba_layer_from_file(
         path,
-        |resolution, _| {
-            let (w, h) = (resolution.width(), resolution.height());
-            (w, vec![Rgb::BLACK; w * h])
-        },
+        |resolution, _| texels(resolution),
         |(w, texels): &mut (usize, Vec<Rgb>), pos, (r, g, b, _): (f32, f32, f32, f32)| {
             texels[pos.y() * *w + pos.x()] = Rgb::new(r, g, b);
         },
-    )
-    .map_err(|e| {
-        format!(
-            "cannot read {} (an OpenEXR image needs R, G and B channels): {e}",
-            path.display()
-        )
-    })?;
-    let size = image.layer_data.size;
-    let (_, texels) = image.layer_data.channel_data.pixels;
+    );
+    let (size, (_, texels)) = match rgb {
+        Ok(image) => (image.layer_data.size, image.layer_data.channel_data.pixels),
+        // A grey image (Mitsuba's `mono` variants write one) replicates Y, as Mitsuba reads it.
+        Err(rgb_error) => read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .specific_channels()
+            .required("Y")
+            .collect_pixels(
+                |resolution, _| texels(resolution),
+                |(w, texels): &mut (usize, Vec<Rgb>), pos, (y,): (f32,)| {
+                    texels[pos.y() * *w + pos.x()] = Rgb::new(y, y, y);
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_file(path)
+            .map(|image| (image.layer_data.size, image.layer_data.channel_data.pixels))
+            .map_err(|_| {
+                format!(
+                    "cannot read {} (an OpenEXR image needs R, G and B channels, or Y): \
+                     {rgb_error}",
+                    path.display()
+                )
+            })?,
+    };
     Ok((size.width(), size.height(), texels))
 }
 
@@ -208,6 +227,38 @@ mod tests {
         std::fs::write(&empty, b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n").unwrap();
         let err = read_rgb_image(&empty, false).unwrap_err();
         assert!(err.contains("empty.hdr"), "{err}");
+    }
+
+    /// An OpenEXR file with one luminance channel `Y` (Mitsuba's `mono` output) reads as grey;
+    /// it was refused for want of R, G and B. A file with neither is still refused, saying what
+    /// it needs.
+    #[test]
+    fn grey_exr_reads_as_grey() {
+        use exr::prelude::*;
+        let path = dir().join("grey.exr");
+        let pixels = SpecificChannels::build()
+            .with_channel("Y")
+            .with_pixel_fn(|p: Vec2<usize>| (0.25f32 + p.x() as f32,));
+        Image::from_channels((2, 1), pixels)
+            .write()
+            .to_file(&path)
+            .unwrap();
+        let (w, h, t) = read_rgb_image(&path, false).unwrap();
+        assert_eq!((w, h), (2, 1));
+        assert_eq!(
+            t,
+            vec![Rgb::new(0.25, 0.25, 0.25), Rgb::new(1.25, 1.25, 1.25)]
+        );
+        let depth = dir().join("depth.exr");
+        let pixels = SpecificChannels::build()
+            .with_channel("Z")
+            .with_pixel_fn(|_| (1.0f32,));
+        Image::from_channels((2, 1), pixels)
+            .write()
+            .to_file(&depth)
+            .unwrap();
+        let err = read_rgb_image(&depth, false).unwrap_err();
+        assert!(err.contains("depth.exr") && err.contains("or Y"), "{err}");
     }
 
     #[test]
