@@ -53,6 +53,7 @@ fn read_any(path: &Path, raw: bool) -> Result<RgbImage, String> {
         // Radiance HDR. Its first line names the program that wrote it: `#?RADIANCE`, or
         // `#?RGBE` from Mitsuba 3 and Walter's rgbe.c; the strict decoder takes only the former.
         use image::ImageDecoder;
+        let file = lf_header(file).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         let mut decoder =
             image::codecs::hdr::HdrDecoder::new_nonstrict(file).map_err(unreadable)?;
         limits.reserve(decoder.total_bytes()).map_err(unreadable)?;
@@ -77,6 +78,32 @@ fn read_any(path: &Path, raw: bool) -> Result<RgbImage, String> {
         .map(|p| Rgb::new(decode(p[0]), decode(p[1]), decode(p[2])))
         .collect();
     Ok((w, h, texels))
+}
+
+/// A Radiance HDR file with its header's CRLF line ends (a file that passed through Windows
+/// tools) made LF: the header is the lines up to the first empty one and the resolution line after
+/// it, and the `image` crate's decoder ends it only at an empty line, so `\r` lines ran it into
+/// the pixels ("EOF in header"). The pixels are passed on untouched. At most 64 KiB of header.
+fn lf_header<R: std::io::BufRead>(mut file: R) -> std::io::Result<impl std::io::BufRead> {
+    let mut header = Vec::new();
+    let mut blank_seen = false;
+    loop {
+        let mut line = Vec::new();
+        if file.read_until(b'\n', &mut line)? == 0 || header.len() > 1 << 16 {
+            break;
+        }
+        if line.ends_with(b"\r\n") {
+            line.truncate(line.len() - 2);
+            line.push(b'\n');
+        }
+        let blank = line == b"\n";
+        header.extend_from_slice(&line);
+        if blank_seen {
+            break;
+        }
+        blank_seen = blank;
+    }
+    Ok(std::io::Read::chain(std::io::Cursor::new(header), file))
 }
 
 /// The sRGB transfer function's inverse (IEC 61966-2-1): an encoded value in [0, 1] to linear.
@@ -259,6 +286,21 @@ mod tests {
             .unwrap();
         let err = read_rgb_image(&depth, false).unwrap_err();
         assert!(err.contains("depth.exr") && err.contains("or Y"), "{err}");
+    }
+
+    /// A header with CRLF line ends (and a blank line `\r\n`) reads as the LF one does; it failed
+    /// with "EOF in header".
+    #[test]
+    fn hdr_header_with_crlf_line_ends_reads() {
+        let path = dir().join("crlf.hdr");
+        let mut bytes = b"#?RADIANCE\r\nFORMAT=32-bit_rle_rgbe\r\n\r\n-Y 1 +X 2\r\n".to_vec();
+        // A pixel whose bytes hold \r and \n stays as it is.
+        bytes.extend([13, 10, 13, 129, 128, 64, 32, 129]);
+        std::fs::write(&path, &bytes).unwrap();
+        let (w, h, t) = read_rgb_image(&path, false).unwrap();
+        assert_eq!((w, h), (2, 1));
+        assert_eq!(t[0], Rgb::new(13.0 / 128.0, 10.0 / 128.0, 13.0 / 128.0));
+        assert_eq!(t[1], Rgb::new(1.0, 0.5, 0.25));
     }
 
     #[test]
