@@ -116,12 +116,13 @@ fn worst_z(out: &RenderOutput, want: &[f64]) -> (f64, usize) {
 }
 
 /// Each entry: integrator and samples (passes) per pixel.
-const METHODS: [(&str, u32); 7] = [
+const METHODS: [(&str, u32); 8] = [
     ("Path(max_bounces: 0)", 512),
     ("Light(max_bounces: 0)", 512),
     ("Bdpt(max_bounces: 0)", 256),
     ("Sppm(max_bounces: 0, photons_per_pass: 1000)", 512),
     ("Vcm(max_bounces: 0)", 256),
+    ("Vcm(max_bounces: 0, variant: Vc)", 256),
     // Maps or a solution per pass, at the pass's instant (an accumulation buffer).
     (
         "PhotonMap(max_bounces: 0, photons: 100, caustic_photons: 100)",
@@ -142,6 +143,18 @@ fn every_integrator_blurs_a_crossing_ball_as_the_closed_form_says() {
     for (i, (config, spp)) in METHODS.into_iter().enumerate() {
         let out = render(&blurred, config, spp, 10 + i as u64);
         assert_eq!(out.stats.non_finite_total(), 0, "{config}");
+        // Methods whose passes each take one instant of the shutter (a stratum) do not call their
+        // spread over passes an estimate of the variance; those whose samples draw their own
+        // times do. Vcm(variant: Vc) called it one.
+        let per_pass = ["Sppm", "Vcm", "PhotonMap", "Radiosity"]
+            .iter()
+            .any(|m| config.starts_with(m));
+        assert_eq!(
+            out.stats.pixel_variance.is_estimate(),
+            !per_pass,
+            "{config}: {:?}",
+            out.stats.pixel_variance
+        );
         let (zs, p) = worst_z(&out, &want);
         assert!(
             zs < crit,

@@ -256,17 +256,20 @@ pub fn run(args: RenderArgs) -> Result<(), String> {
 fn image_mean(mean: [f64; 3], se: Option<[f64; 3]>, stats: &RenderStats) -> String {
     let m = format!("({:.6}, {:.6}, {:.6})", mean[0], mean[1], mean[2]);
     let spp = stats.spp;
-    let from = match stats.pixel_variance {
+    let from = match &stats.pixel_variance {
         PixelVariance::CameraAndPhotonGroups { groups } => format!(
-            "from the spread of {spp} camera sample passes and of {groups} independent photon groups"
+            "1 standard error, from the spread of {spp} camera sample passes and of {groups} \
+             independent photon groups"
         ),
-        _ => format!("from the spread of {spp} independent sample passes"),
+        // Passes at stratified instants, or not identically distributed: their spread is no
+        // estimate of the standard error.
+        PixelVariance::NotAnEstimate(why) => {
+            format!("the spread of {spp} sample passes, not a standard error: {why}")
+        }
+        _ => format!("1 standard error, from the spread of {spp} independent sample passes"),
     };
     match se {
-        Some(e) => format!(
-            "{m} ± ({:.2e}, {:.2e}, {:.2e}) (1 standard error, {from})",
-            e[0], e[1], e[2]
-        ),
+        Some(e) => format!("{m} ± ({:.2e}, {:.2e}, {:.2e}) ({from})", e[0], e[1], e[2]),
         None => format!(
             "{m} (no standard error: this integrator's or sampler's passes are not independent; measure it across seeds)"
         ),

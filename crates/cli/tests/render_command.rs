@@ -355,6 +355,32 @@ fn time_budget_and_honest_error_bars() {
         ),
         "{stdout}"
     );
+    // With motion blur its passes take stratified instants: the spread is printed, but not as
+    // a standard error of independent passes (it was).
+    let blurred = dir.join("blurred.ron");
+    std::fs::write(
+        &blurred,
+        std::fs::read_to_string(repo().join("scenes/motion-blur.ron"))
+            .unwrap()
+            .replace("resolution: (192, 128)", "resolution: (24, 16)"),
+    )
+    .unwrap();
+    let (ok, stdout, stderr) = render_with(
+        &blurred,
+        &[
+            "--spp",
+            "4",
+            "-i",
+            "PhotonMap(photons: 2000, caustic_photons: 200)",
+        ],
+        &out,
+    );
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains("the spread of 4 sample passes, not a standard error: an upper bound")
+            && !stdout.contains("independent sample passes"),
+        "{stdout}"
+    );
     for bad in ["0", "-1", "nan", "inf"] {
         let (ok, _, stderr) = render_with(&small, &["--seconds", bad], &out);
         assert!(

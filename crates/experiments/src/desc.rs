@@ -233,10 +233,11 @@ pub(crate) fn locate(text: &str, needle: &str) -> (usize, usize) {
 }
 
 /// Line and column (1-based) of the first `needle` after the first `anchor` (or of `anchor`, or
-/// of the start, when not found).
+/// of the start, when not found), comments left out.
 pub(crate) fn locate_after(text: &str, anchor: &str, needle: &str) -> (usize, usize) {
-    let from = text.find(anchor).unwrap_or(0);
-    let at = text[from..].find(needle).map_or(from, |i| from + i);
+    let code = lightlab_scene::text::without_comments(text);
+    let from = code.find(anchor).unwrap_or(0);
+    let at = code[from..].find(needle).map_or(from, |i| from + i);
     let line = text[..at].matches('\n').count() + 1;
     let col = at - text[..at].rfind('\n').map_or(0, |i| i + 1) + 1;
     (line, col)
@@ -573,6 +574,13 @@ mod tests {
             ),
             (
                 GOOD.replace("trials: 3", "trials: 1"),
+                "e.ron:10:",
+                "trials must be ≥ 2",
+            ),
+            // A comment that names the field is not where the error is (it was).
+            (
+                GOOD.replace("name: \"t\",", "name: \"t\", // four trials, a reference")
+                    .replace("trials: 3", "trials: 1"),
                 "e.ron:10:",
                 "trials must be ≥ 2",
             ),

@@ -55,9 +55,11 @@ impl SceneError {
     }
 }
 
-/// 1-based line and column (in characters) of the first occurrence of `needle`.
+/// 1-based line and column (in characters) of the first occurrence of `needle` outside comments.
 pub(crate) fn locate(text: &str, needle: &str) -> Option<(usize, usize)> {
-    text.find(needle).map(|at| line_col(text, at))
+    crate::text::without_comments(text)
+        .find(needle)
+        .map(|at| line_col(text, at))
 }
 
 /// 1-based line and column (in characters) of byte offset `at` of `text`.

@@ -86,6 +86,83 @@ fn read_at_most(path: &Path, limit: u64) -> Result<String, TextError> {
     })
 }
 
+/// `text` with its RON comments (`//` to the end of the line, `/* … */`, nested) blanked to
+/// spaces byte for byte, newlines kept: searching it for a field's name finds the field, not a
+/// comment that mentions it, at the same byte offset as in `text`.
+pub fn without_comments(text: &str) -> String {
+    #[derive(PartialEq)]
+    enum State {
+        Code,
+        Str { escaped: bool },
+        Line,
+        Block(u32),
+    }
+    let bytes = text.as_bytes();
+    let mut out = bytes.to_vec();
+    let mut state = State::Code;
+    let mut i = 0;
+    while i < bytes.len() {
+        let (b, next) = (bytes[i], bytes.get(i + 1).copied());
+        let blank = |out: &mut Vec<u8>, at: usize| {
+            if out[at] != b'\n' {
+                out[at] = b' ';
+            }
+        };
+        match state {
+            State::Code => match (b, next) {
+                (b'"', _) => state = State::Str { escaped: false },
+                (b'/', Some(b'/')) => state = State::Line,
+                (b'/', Some(b'*')) => {
+                    state = State::Block(1);
+                    blank(&mut out, i);
+                    blank(&mut out, i + 1);
+                    i += 1;
+                }
+                _ => {}
+            },
+            State::Str { escaped } => {
+                state = match b {
+                    b'"' if !escaped => State::Code,
+                    b'\\' => State::Str { escaped: !escaped },
+                    _ => State::Str { escaped: false },
+                }
+            }
+            State::Line => {
+                if b == b'\n' {
+                    state = State::Code;
+                }
+            }
+            State::Block(depth) => match (b, next) {
+                (b'*', Some(b'/')) => {
+                    state = if depth == 1 {
+                        State::Code
+                    } else {
+                        State::Block(depth - 1)
+                    };
+                    blank(&mut out, i);
+                    blank(&mut out, i + 1);
+                    i += 2;
+                    continue;
+                }
+                (b'/', Some(b'*')) => {
+                    state = State::Block(depth + 1);
+                    blank(&mut out, i);
+                    blank(&mut out, i + 1);
+                    i += 2;
+                    continue;
+                }
+                _ => {}
+            },
+        }
+        if matches!(state, State::Line | State::Block(_)) {
+            blank(&mut out, i);
+        }
+        i += 1;
+    }
+    // Only ASCII bytes were written, each over a whole comment's bytes: still UTF-8.
+    String::from_utf8(out).expect("comments blanked whole")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -135,5 +212,19 @@ mod tests {
             read_at_most(&path, (1 << 10) - 1),
             Err(TextError::TooLarge)
         ));
+    }
+
+    #[test]
+    fn comments_are_blanked_in_place() {
+        let text = "Scene( // trials: é\n  a: \"x // y\", /* b /* c */ d */ trials: 2,\n)";
+        let out = without_comments(text);
+        assert_eq!(out.len(), text.len());
+        assert_eq!(out.find("trials"), text.rfind("trials"));
+        assert!(out.contains("\"x // y\""), "{out}");
+        assert!(
+            !out.contains('b') && !out.contains('d') && out.contains('\n'),
+            "{out}"
+        );
+        assert_eq!(out.lines().count(), text.lines().count());
     }
 }

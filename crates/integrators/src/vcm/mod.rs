@@ -438,7 +438,10 @@ impl SampledRender for Vcm {
                 Technique::CameraConnection,
                 Technique::Merge,
             ],
-            if spec.independent {
+            if spec.independent && scene.motion_blur() {
+                // Each pass's one instant is a stratum of the shutter (`shutter`).
+                crate::shutter::instants_variance()
+            } else if spec.independent {
                 PixelVariance::Independent
             } else if cfg.variant == Variant::Vc {
                 PixelVariance::NotAnEstimate(format!(
