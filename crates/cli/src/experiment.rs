@@ -118,10 +118,18 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         outcome.ran,
         outcome.skipped
     );
-    println!(
-        "results in {}: index.html (the report), runs.csv, summary.json, *.svg, runs/",
-        outcome.out_dir.display()
-    );
+    if outcome.report_written {
+        println!(
+            "results in {}: index.html (the report), runs.csv, summary.json, *.svg, runs/",
+            outcome.out_dir.display()
+        );
+    } else {
+        println!(
+            "results in {}: runs/; the report and tables there were not rebuilt (see the warning \
+             above)",
+            outcome.out_dir.display()
+        );
+    }
     Ok(())
 }
 

@@ -487,6 +487,20 @@ fn report_rebuilds_from_disk_and_refuses_without_images() {
         std::fs::read(dir.join("res/cli/summary.json")).unwrap(),
         summary
     );
+    // `run` with nothing to render warns and leaves them too, and does not claim a report it
+    // did not write (it did).
+    let again = lightlab(&["run", "e.ron", "--results", "res"], &dir);
+    let stdout = String::from_utf8_lossy(&again.stdout);
+    assert!(
+        again.status.success()
+            && stdout.contains("were not rebuilt")
+            && !stdout.contains("index.html (the report)"),
+        "{stdout}"
+    );
+    assert_eq!(
+        std::fs::read(dir.join("res/cli/summary.json")).unwrap(),
+        summary
+    );
 
     // A run directory gone altogether: the report is rebuilt from the other runs, and says that
     // one of the experiment's runs has no results.

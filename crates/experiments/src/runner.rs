@@ -226,6 +226,9 @@ pub struct Outcome {
     pub ran: usize,
     pub skipped: usize,
     pub warnings: Vec<String>,
+    /// Whether the tables, plots and report were rebuilt (not when nothing was rendered and
+    /// the results lack inputs the report needs: a warning says which).
+    pub report_written: bool,
 }
 
 /// Copies the experiment file beside its results (`experiment.ron`), for the report to show.
@@ -389,6 +392,7 @@ pub fn run_experiment(
             ran: 0,
             skipped: runs.len(),
             warnings,
+            report_written: false,
         });
     }
     let pending: Vec<&RunSpec> = runs
@@ -526,16 +530,20 @@ pub fn run_experiment(
     warnings.dedup();
     // With nothing rendered now, results kept without their images (committed ones) stay as
     // they are; after rendering, a report that cannot be rebuilt is an error.
-    match write_report(&out_dir) {
-        Err(e) if pending.is_empty() => warnings.push(e.to_string()),
-        r => r.map_err(|e| e.to_string())?,
-    }
+    let report_written = match write_report(&out_dir) {
+        Err(e) if pending.is_empty() => {
+            warnings.push(e.to_string());
+            false
+        }
+        r => r.map(|_| true).map_err(|e| e.to_string())?,
+    };
     Ok(Outcome {
         out_dir,
         total,
         ran: pending.len(),
         skipped,
         warnings,
+        report_written,
     })
 }
 
