@@ -25,15 +25,15 @@ impl SceneError {
         let path = path.to_path_buf();
         match e {
             TextError::Io(source) => SceneError::Io { path, source },
-            TextError::NotUtf8 { line, col, byte } => SceneError::Invalid {
+            TextError::NotUtf8 { line, col, .. } => SceneError::Invalid {
                 path,
                 line,
                 col,
-                message: format!("byte 0x{byte:02x} is not UTF-8 text (save the file as UTF-8)"),
+                message: e.to_string(),
             },
             TextError::TooLarge => SceneError::Io {
                 path,
-                source: std::io::Error::other(TextError::TooLarge.to_string()),
+                source: std::io::Error::other(e),
             },
         }
     }

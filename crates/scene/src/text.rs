@@ -33,10 +33,10 @@ impl std::fmt::Display for TextError {
                  or an endless pipe?)",
                 MAX_TEXT_BYTES >> 30
             ),
-            TextError::NotUtf8 { line, col, byte } => write!(
+            // The position is the caller's to print (`located`, or a scene error's own).
+            TextError::NotUtf8 { byte, .. } => write!(
                 f,
-                "byte 0x{byte:02x} at line {line}, column {col} is not UTF-8 text (save the file \
-                 as UTF-8)"
+                "byte 0x{byte:02x} is not UTF-8 text (save the file as UTF-8)"
             ),
         }
     }
@@ -47,10 +47,9 @@ impl TextError {
     /// takes.
     pub fn located(&self, path: &Path) -> String {
         match self {
-            TextError::NotUtf8 { line, col, byte } => format!(
-                "{}:{line}:{col}: byte 0x{byte:02x} is not UTF-8 text (save the file as UTF-8)",
-                path.display()
-            ),
+            TextError::NotUtf8 { line, col, .. } => {
+                format!("{}:{line}:{col}: {self}", path.display())
+            }
             _ => format!("{}: {self}", path.display()),
         }
     }
