@@ -49,7 +49,12 @@ pub fn permutation_element(mut i: u32, n: u32, key: u32) -> u32 {
         i &= w;
         i ^= i >> 5;
         if i < n {
-            return ((i as u64 + p as u64) % n as u64) as u32;
+            // (i + p) mod n; for n = 2ᵏ the low k bits of the wrapped sum are the same number.
+            return if n.is_power_of_two() {
+                i.wrapping_add(p) & (n - 1)
+            } else {
+                ((i as u64 + p as u64) % n as u64) as u32
+            };
         }
     }
 }
@@ -198,7 +203,14 @@ pub(crate) fn round_down_f32(v: f64) -> f32 {
 /// of a 24-bit mantissa and n < 2²⁷ is exact in f64), so stratification survives the rounding.
 #[inline]
 pub(crate) fn stratum_value(i: u32, n: u32, jitter24: u32) -> f32 {
-    let v = (i as f64 + jitter24 as f64 * (1.0 / (1u64 << 24) as f64)) / n as f64;
+    let x = i as f64 + jitter24 as f64 * (1.0 / (1u64 << 24) as f64);
+    // Dividing by n = 2ᵏ is exact, and so is multiplying by 2⁻ᵏ (built from its exponent): the same
+    // double without the division's latency.
+    let v = if n.is_power_of_two() {
+        x * f64::from_bits((1023 - n.trailing_zeros() as u64) << 52)
+    } else {
+        x / n as f64
+    };
     let f = round_down_f32(v);
     // Round-down can drop below i/n only when i/n is not an f32; the next float up is then the
     // smallest f32 above i/n and still not above v.
@@ -305,6 +317,30 @@ mod tests {
                     assert!(x < 1.0 && !seen[cell], "base {base}, key {key}: {a} -> {x}");
                     seen[cell] = true;
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn stratum_values_of_powers_of_two_are_the_divided_ones() {
+        // The shortcut for n = 2ᵏ must give the double that dividing gives, bit for bit.
+        let mut state = 9u64;
+        let mut next = || {
+            state = splitmix64(state);
+            state
+        };
+        for k in 0..27 {
+            let n = 1u32 << k;
+            for _ in 0..1000 {
+                let (i, jitter) = ((next() % n as u64) as u32, (next() >> 40) as u32);
+                let x = i as f64 + jitter as f64 / (1u64 << 24) as f64;
+                let divided = round_down_f32(x / n as f64);
+                let expected = if (divided as f64) * (n as f64) < i as f64 {
+                    divided.next_up()
+                } else {
+                    divided
+                };
+                assert_eq!(stratum_value(i, n, jitter).to_bits(), expected.to_bits());
             }
         }
     }

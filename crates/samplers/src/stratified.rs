@@ -145,7 +145,11 @@ impl Sampler for Stratified {
             )
         } else {
             let s = permutation_element(i, self.spp, p as u32);
-            (s % self.nx, s / self.nx)
+            if self.nx.is_power_of_two() {
+                (s & (self.nx - 1), s >> self.nx.trailing_zeros())
+            } else {
+                (s % self.nx, s / self.nx)
+            }
         };
         Vec2::new(
             stratum_value(sx, self.nx, (j >> 40) as u32),
