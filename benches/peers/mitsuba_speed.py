@@ -9,7 +9,10 @@ For each scene, Lightlab renders scenes/<scene>.ron as shipped (`lightlab render
 child process; more with --lightlab-integrator) and Mitsuba 3 renders its translation
 benches/peers/<scene>.xml (`path`, max_depth −1, rr_depth 5, box filter; with --mitsuba-integrator
 ptracer its light tracer instead, max_depth −1, rr_depth 5, against --lightlab-integrator 'Light()',
-which traces as many light paths, width × height × spp) in the variants scalar_rgb and llvm_ad_rgb, each on every --threads count, all at the same spp and resolution, --trials times
+which traces as many light paths, width × height × spp) in the variants scalar_rgb and llvm_ad_rgb,
+with the scene files' independent sampler (and each --mitsuba-sampler, e.g. multijitter or
+ldsampler, beside --lightlab-integrator 'Path(sampler: Sobol)'), each on every --threads count, all at
+the same spp and resolution, --trials times
 with seeds 1, 2, … The trials go round-robin: trial 1 of every renderer, then trial 2, …, so a
 drift of this VM's speed during the run (runs on different days moved one renderer's rate by 10 %
 against another's) falls on all of them alike. Each Mitsuba trial runs in its own Python process
@@ -93,7 +96,7 @@ def worker(spec):
     if llvm:
         dr.set_flag(dr.JitFlag.KernelHistory, True)
     t0 = time.perf_counter()
-    scene = mi.load_file(spec["scene"], res=spec["resolution"])
+    scene = mi.load_file(spec["scene"], res=spec["resolution"], sampler=spec["sampler"])
     # The scene file's own integrator is `path`; another replaces it with the same depth settings.
     integrator = (None if spec["integrator"] == "path" else
                   mi.load_dict({"type": spec["integrator"], "max_depth": -1, "rr_depth": 5}))
@@ -125,6 +128,8 @@ def worker(spec):
     images = []
     for seed in spec["seeds"]:
         img, wall, cpu = render(spec["spp"], seed)
+        # A sampler may round the count it was given (orthogonal: to a prime's square).
+        result["spp"] = scene.sensors()[0].sampler().sample_count()
         trial = {"seed": seed, "wall_seconds": wall, "cpu_seconds": cpu}
         if llvm:
             trial["kernels"] = jit(dr.kernel_history())
@@ -184,11 +189,11 @@ def run_lightlab(args, scene, integrator, spp, threads, seed, output):
     return wall, cpu, stats
 
 
-def run_mitsuba(args, variant, scene, threads, seeds, outputs):
+def run_mitsuba(args, variant, sampler, scene, threads, seeds, outputs):
     """Runs one Mitsuba configuration in a worker process; writes each trial's image to `outputs`."""
     npy = os.path.splitext(outputs[0])[0] + ".npy"
     spec = {"variant": variant, "integrator": args.mitsuba_integrator, "threads": threads, "scene": scene,
-            "spp": args.spp,
+            "sampler": sampler, "spp": args.spp,
             "resolution": args.resolution, "seeds": seeds, "output": npy}
     c0 = cpu_seconds(resource.RUSAGE_CHILDREN)
     p = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker", json.dumps(spec)],
@@ -246,6 +251,11 @@ def main():
     ap.add_argument("--mitsuba-integrator", default="path", choices=["path", "ptracer"],
                     help="Mitsuba's integrator: its path tracer (the scene files') or its light tracer "
                          "(compare with --lightlab-integrator 'Light()')")
+    ap.add_argument("--mitsuba-sampler", action="append", metavar="NAME",
+                    help="Mitsuba sampler(s) (repeatable; default independent, the scene files' own): "
+                         "stratified, multijitter, ldsampler, orthogonal (which rounds spp to a prime's "
+                         "square; its row counts the samples it took). The ratios stay ÷ llvm_ad_rgb "
+                         "with the independent sampler, which is always run")
     ap.add_argument("--lightlab", default=os.path.join(ROOT, "target", "release", "lightlab"))
     ap.add_argument("--out", default="/tmp/mitsuba-speed")
     args = ap.parse_args()
@@ -257,6 +267,8 @@ def main():
         worker(json.loads(args.worker))
         return
     integrators = args.lightlab_integrator or ["Path()"]
+    # The ratios' base (llvm_ad_rgb, independent) is always run.
+    args.mitsuba_sampler = ["independent"] + [m for m in args.mitsuba_sampler or [] if m != "independent"]
     seeds = list(range(1, args.trials + 1))
     os.makedirs(args.out, exist_ok=True)
     started = datetime.datetime.now().astimezone().isoformat(timespec="seconds")
@@ -284,10 +296,11 @@ def main():
                             "rel_mse_subtracted": float(np.mean(ref_var / (ref * ref + REL_EPSILON)))}
 
         for threads in args.threads:
-            mitsuba_rows = {variant: {"scene": name, "renderer": f"Mitsuba {variant}", "threads": threads,
-                                      "spp": args.spp, "images": [], "wall": [], "cpu": [], "busy_wall": [],
-                                      "raw": {"processes": []}}
-                            for variant in args.variants}
+            mitsuba_rows = {(variant, sampler): {
+                "scene": name, "threads": threads, "spp": args.spp, "images": [], "wall": [], "cpu": [],
+                "busy_wall": [], "raw": {"processes": []},
+                "renderer": f"Mitsuba {variant}" + ("" if sampler == "independent" else f" {sampler}")}
+                for variant in args.variants for sampler in args.mitsuba_sampler}
             lightlab_rows = {}
             for integrator in integrators:
                 warm_wall, warm_cpu, warm = run_lightlab(args, ron, integrator, 1, threads, WARMUP_SEED,
@@ -302,10 +315,12 @@ def main():
             # Trials round-robin over the renderers (trial k of each, then trial k + 1), so a drift of
             # the machine's speed during the run falls on every renderer alike.
             for seed in seeds:
-                for variant, row in mitsuba_rows.items():
-                    print(f"{name}: Mitsuba {variant}, {threads} thread(s), seed {seed}", file=sys.stderr)
-                    image = os.path.join(out, f"mitsuba-{variant}-{threads}t-{args.spp}spp-seed{seed}.exr")
-                    r = run_mitsuba(args, variant, xml, threads, [seed], [image])
+                for (variant, sampler), row in mitsuba_rows.items():
+                    print(f"{name}: {row['renderer']}, {threads} thread(s), seed {seed}", file=sys.stderr)
+                    stem = f"mitsuba-{variant}" + ("" if sampler == "independent" else f"-{sampler}")
+                    image = os.path.join(out, f"{stem}-{threads}t-{args.spp}spp-seed{seed}.exr")
+                    r = run_mitsuba(args, variant, sampler, xml, threads, [seed], [image])
+                    row["spp"] = r["spp"]
                     trial = r["trials"][0]
                     row["images"].append(image)
                     row["wall"].append(trial["wall_seconds"])
@@ -412,6 +427,7 @@ def main():
                    "mitsuba_version": mitsuba_version, "drjit_libllvm_path": llvm_path,
                    "settings": {"spp": args.spp, "threads": args.threads, "resolution": args.resolution,
                                 "mitsuba_integrator": args.mitsuba_integrator,
+                                "mitsuba_samplers": args.mitsuba_sampler,
                                 "reference_spp": args.reference_spp, "variants": args.variants,
                                 "trials": args.trials, "seeds": {"warmup": WARMUP_SEED, "timed": seeds,
                                           "reference": REFERENCE_SEED},
