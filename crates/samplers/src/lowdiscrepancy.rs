@@ -192,11 +192,14 @@ pub fn bits_to_unit(bits: u32) -> f32 {
     (bits >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
-/// The largest f32 not above `v` (so a value in [0, 1) stays below 1).
+/// The largest f32 not above `v` ≥ 0 (so a value in [0, 1) stays below 1). Branch-free: rounding to
+/// nearest goes up for half of all values, a branch on it mispredicted half the time (a fifth of the
+/// `Stratified` sampler's cost). For f > v ≥ 0, f is positive and its bits less one are the f32 below.
 #[inline]
 pub(crate) fn round_down_f32(v: f64) -> f32 {
+    debug_assert!(v >= 0.0 && v.is_finite(), "round_down_f32: {v}");
     let f = v as f32;
-    if f as f64 > v { f.next_down() } else { f }
+    f32::from_bits(f.to_bits() - (f as f64 > v) as u32)
 }
 
 /// (i + jitter · 2⁻²⁴) / n as an f32 inside stratum i: floor(x · n) = i holds exactly (the product
@@ -342,6 +345,21 @@ mod tests {
                 };
                 assert_eq!(stratum_value(i, n, jitter).to_bits(), expected.to_bits());
             }
+        }
+    }
+
+    #[test]
+    fn round_down_is_the_largest_f32_not_above() {
+        let mut state = 11u64;
+        let values = std::iter::repeat_with(|| {
+            state = splitmix64(state);
+            // Uniform in [0, 1), then values near and at f32 numbers and tiny ones.
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        });
+        let near = [0.0, 1e-45, 1.5e-45, 0.1, 0.5, 1.0 - 1e-12, 0.75f32 as f64];
+        for v in values.take(100_000).chain(near) {
+            let f = round_down_f32(v);
+            assert!(f as f64 <= v && f.next_up() as f64 > v, "{v}: {f}");
         }
     }
 
