@@ -33,13 +33,13 @@ pub struct BenchArgs {
     /// Scene files. Default: scenes/cornell-box.ron and scenes/caustic-sphere.ron.
     scenes: Vec<PathBuf>,
     /// An integrator and its samples per pixel as INTEGRATOR@SPP, e.g. 'Path(russian_roulette: 5)@64'
-    /// (repeatable). Default: Path()@256, Light()@256, Bdpt()@32, Vcm()@32, Sppm()@64,
-    /// PhotonMap()@1.
+    /// (repeatable). Default: Path()@256, Path(sampler: Sobol)@256, Light()@256, Bdpt()@32,
+    /// Vcm()@32, Sppm()@64, PhotonMap()@1.
     #[arg(short, long)]
     integrator: Vec<String>,
     /// Thread counts to run each integrator on, comma-separated.
-    #[arg(long, value_delimiter = ',', default_values_t = [1, 2])]
-    threads: Vec<usize>,
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    pub(crate) threads: Vec<usize>,
     /// Image size WIDTHxHEIGHT of every render and of the reference.
     #[arg(long, value_parser = parse_resolution, default_value = "128x128")]
     resolution: (u32, u32),
@@ -125,6 +125,8 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     let specs: Vec<String> = if args.integrator.is_empty() {
         [
             "Path()@256",
+            // The same estimator with the sampler that buys most per CPU-second on the Cornell box.
+            "Path(sampler: Sobol)@256",
             "Light()@256",
             "Bdpt()@32",
             "Vcm()@32",

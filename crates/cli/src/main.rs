@@ -86,4 +86,19 @@ mod tests {
             assert!(r.is_err(), "{bad:?} accepted");
         }
     }
+
+    #[test]
+    fn bench_threads_default_and_list() {
+        // The default is written as the flag is ("1,2", which --help shows) and means 1 and 2.
+        let threads = |extra: &[&str]| match Cli::try_parse_from(
+            ["lightlab", "bench"].iter().chain(extra).copied(),
+        ) {
+            Ok(Cli {
+                command: Command::Bench(args),
+            }) => args.threads,
+            other => panic!("{extra:?}: {:?}", other.err()),
+        };
+        assert_eq!(threads(&[]), [1, 2]);
+        assert_eq!(threads(&["--threads", "2,1,4"]), [2, 1, 4]);
+    }
 }
