@@ -193,8 +193,9 @@ pub fn bits_to_unit(bits: u32) -> f32 {
 }
 
 /// The largest f32 not above `v` ≥ 0 (so a value in [0, 1) stays below 1). Branch-free: rounding to
-/// nearest goes up for half of all values, a branch on it mispredicted half the time (a fifth of the
-/// `Stratified` sampler's cost). For f > v ≥ 0, f is positive and its bits less one are the f32 below.
+/// nearest goes up for half of all values, and a branch on it, mispredicted half the time, was 40 % of
+/// what the `Stratified` sampler added to a path's time (BENCHMARKS.md). For f > v ≥ 0, f is positive
+/// and its bits less one are the f32 below.
 #[inline]
 pub(crate) fn round_down_f32(v: f64) -> f32 {
     debug_assert!(v >= 0.0 && v.is_finite(), "round_down_f32: {v}");
