@@ -33,7 +33,9 @@ pub fn image_mean(film: &Film) -> ([f64; 3], [f64; 3]) {
 
 /// The image average of `film` and its standard error from the per-pixel variances, for estimators
 /// whose pixels are independent (camera paths only: path tracing). With a stratified sampler each
-/// pixel's s²/n overestimates its variance, which makes tests built on this conservative.
+/// pixel's s²/n overestimates its variance on average where the sampler beats independent samples
+/// (`SamplerConfig::correlation_note`), as on the scenes these tests render, which makes tests
+/// built on this conservative there.
 pub fn independent_pixels_mean(film: &Film) -> ([f64; 3], [f64; 3]) {
     let n = film.pixel_count() as f64;
     let mut var = [0.0; 3];

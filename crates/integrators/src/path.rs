@@ -310,11 +310,7 @@ impl SampledRender for PathTracer {
             if spec.independent {
                 PixelVariance::Independent
             } else {
-                PixelVariance::NotAnEstimate(format!(
-                    "the {} sampler's samples are correlated (s²/n overestimates the variance of \
-                     the mean)",
-                    tracer.config.sampler.name()
-                ))
+                PixelVariance::NotAnEstimate(tracer.config.sampler.correlation_note("samples"))
             },
         );
         RenderOutput {

@@ -93,10 +93,26 @@ impl SamplerConfig {
     }
 
     /// Whether the samples of a pixel are independent (only `Independent`): then s²/n over them
-    /// estimates the variance of the pixel mean. Stratified and low-discrepancy samples are
-    /// negatively correlated, and s²/n overestimates it.
+    /// estimates the variance of the pixel mean. For the others see [`Self::correlation_note`].
     pub fn independent(&self) -> bool {
         matches!(self, SamplerConfig::Independent)
+    }
+
+    /// Why s²/n over a pixel's `samples` (what the integrator draws with this sampler) is no
+    /// estimate of the variance V of their mean when the sampler is not independent. With n samples
+    /// of variance σ² each, E[s²] = (σ² − V)·n/(n − 1), so E[s²/n] ≥ V exactly when V ≤ σ²/n: s²/n
+    /// overestimates V on average where the sampler does better than independent sampling, as
+    /// stratified and scrambled low-discrepancy samples do on smooth and piecewise-smooth
+    /// integrands, but no sampler here guarantees that for every integrand (a scrambled
+    /// (0, m, 2)-net may have up to twice independent sampling's variance: Owen 1997, "Monte Carlo
+    /// variance of scrambled net quadrature", SIAM J. Numer. Anal. 34(5)).
+    pub fn correlation_note(&self, samples: &str) -> String {
+        format!(
+            "the {} sampler's {samples} are correlated: s²/n is no estimate of the variance of the \
+             mean (above it on average only where the sampler beats independent samples, as \
+             stratification does on smooth integrands)",
+            self.name()
+        )
     }
 
     /// Constructs the configured sampler for `spp` samples per pixel and hands it to `visitor`,

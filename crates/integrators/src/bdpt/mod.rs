@@ -393,11 +393,7 @@ impl SampledRender for Bdpt {
             if spec.independent {
                 PixelVariance::Independent
             } else {
-                PixelVariance::NotAnEstimate(format!(
-                    "the {} sampler's camera subpaths are correlated (s²/n overestimates the \
-                     variance of the mean)",
-                    cfg.sampler.name()
-                ))
+                PixelVariance::NotAnEstimate(cfg.sampler.correlation_note("camera subpaths"))
             },
         );
         let mut outliers: Vec<Outlier> = out

@@ -444,11 +444,7 @@ impl SampledRender for Vcm {
             } else if spec.independent {
                 PixelVariance::Independent
             } else if cfg.variant == Variant::Vc {
-                PixelVariance::NotAnEstimate(format!(
-                    "the {} sampler's camera subpaths are correlated (s²/n overestimates the \
-                     variance of the mean)",
-                    cfg.sampler.name()
-                ))
+                PixelVariance::NotAnEstimate(cfg.sampler.correlation_note("camera subpaths"))
             } else {
                 PixelVariance::NotAnEstimate(
                     "the spread of per-pass estimates at a shrinking merge radius, which are not \
