@@ -16,8 +16,9 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Benchmark integrators: for each scene, integrator and thread count, timed renders with
-/// independent seeds (--trials, after a one-sample warm-up on the same threads) and their error
-/// against a cached high-sample reference.
+/// independent seeds (--trials, after a one-sample warm-up on the same threads; trial 1 of every
+/// row, then trial 2, …, so that a drift of the machine's speed falls on all rows alike) and their
+/// error against a cached high-sample reference.
 /// Prints a Markdown table of paths per CPU-second (a camera path for Path and the photon-mapping
 /// integrators, a light path for Light, a camera–light subpath pair for Bdpt and Vcm), photon
 /// paths per CPU-second (photon-mapping integrators and Vcm's light paths; each row's rate counts
@@ -106,6 +107,29 @@ struct Row {
 const CLOCK_TICK: f64 = 0.01;
 /// Ticks of CPU time below which a row's CPU rates are marked as rounded (50: 2 %).
 const PRECISE_TICKS: f64 = 50.0;
+
+/// One row in the making: an integrator at a thread count, with its pool and its trials so far.
+struct Cell<'a> {
+    label: &'a str,
+    config: &'a IntegratorConfig,
+    spp: u32,
+    threads: usize,
+    integrator: Box<dyn lightlab_integrators::Integrator>,
+    pool: rayon::ThreadPool,
+    trials: Trials,
+}
+
+/// What a cell's trials measured: per trial, and the paths and photons of one trial with the rays
+/// of all.
+#[derive(Default)]
+struct Trials {
+    walls: Vec<f64>,
+    cpus: Vec<f64>,
+    rel_mses: Vec<f64>,
+    paths: u64,
+    photons: u64,
+    rays: u64,
+}
 
 /// `INTEGRATOR@SPP`, checked: the integrator as written, its settings and its spp.
 fn parse_spec(s: &str) -> Result<(String, IntegratorConfig, u32), String> {
@@ -203,103 +227,131 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
             r.path.display(),
             if r.cached { "cached" } else { "rendered now" }
         );
+        // One cell per integrator and thread count, each warmed up on its own threads; then the
+        // trials go round-robin (trial 1 of every cell, then trial 2, …), so that a drift of the
+        // machine's speed during the run falls on every row alike rather than on the last ones.
+        let mut cells = Vec::new();
         for (label, config, spp) in &integrators {
-            let integrator = config.build()?;
-            lightlab_integrators::memory::check_render(
-                &*integrator,
-                &scene,
-                &Budget::Samples(*spp),
-            )
-            .map_err(|e| format!("{}: {e}", path.display()))?;
             for &threads in &args.threads {
+                let integrator = config.build()?;
+                lightlab_integrators::memory::check_render(
+                    &*integrator,
+                    &scene,
+                    &Budget::Samples(*spp),
+                )
+                .map_err(|e| format!("{}: {e}", path.display()))?;
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
                     .build()
                     .map_err(|e| format!("cannot start worker threads: {e}"))?;
                 pool.install(|| integrator.render(&scene, &Budget::Samples(1), 0, &NoProgress));
-                let (mut walls, mut cpus, mut rel_mses) = (Vec::new(), Vec::new(), Vec::new());
-                let (mut paths, mut photons, mut rays) = (0, 0, 0);
-                for trial in 0..args.trials as u64 {
-                    let seed = args.seed.wrapping_add(trial);
-                    let (out, wall, cpu) = timed(|| {
-                        pool.install(|| {
-                            integrator.render(&scene, &Budget::Samples(*spp), seed, &NoProgress)
-                        })
-                    });
-                    let layers = output_layers(&out);
-                    let e = errors(&layers[0].pixels, &r.image)
-                        .ok_or("image and reference sizes differ")?;
-                    walls.push(wall);
-                    cpus.push(cpu);
-                    rel_mses.push(e.rel_mse);
-                    (paths, photons, rays) =
-                        (out.stats.samples, out.stats.photons, rays + out.stats.rays);
-                }
-                let n = args.trials as f64;
-                let (wall, cpu) = (walls.iter().sum::<f64>() / n, cpus.iter().sum::<f64>() / n);
-                let rel_mse = rel_mses.iter().sum::<f64>() / n;
-                // The trials are independent renders: the standard error of their mean.
-                let rel_mse_se = (args.trials > 1).then(|| {
-                    let ss = rel_mses.iter().map(|x| (x - rel_mse).powi(2)).sum::<f64>();
-                    (ss / (n - 1.0) / n).sqrt()
-                });
-                // Rates are totals over totals (a ratio of means, not a mean of ratios).
-                let row = Row {
-                    scene: name.clone(),
-                    integrator: config.to_ron(),
-                    threads,
-                    spp: *spp,
-                    trials: args.trials,
-                    paths,
-                    wall_seconds: wall,
-                    cpu_seconds: cpu,
-                    cpu_seconds_per_trial: cpus,
-                    rel_mse_per_trial: rel_mses,
-                    paths_per_cpu_second: (cpu > 0.0).then(|| paths as f64 / cpu),
-                    cpu_rates_rounded: cpu < PRECISE_TICKS * CLOCK_TICK,
-                    photon_paths: photons,
-                    photon_paths_per_cpu_second: (cpu > 0.0 && photons > 0)
-                        .then(|| photons as f64 / cpu),
-                    rays_per_second: rays as f64 / (wall * n),
-                    rays_per_path: rays as f64 / (paths as f64 * n),
-                    rel_mse,
-                    rel_mse_se,
-                    rel_mse_times_spp: rel_mse * *spp as f64,
-                    // Undefined where the error is at or below the reference's noise (relMSE ≤ 0
-                    // once its variance is subtracted), as in experiments.
-                    efficiency: (cpu > 0.0 && rel_mse > 0.0).then(|| 1.0 / (rel_mse * cpu)),
-                    cpu_model: cpu_model.clone(),
-                    logical_cpus,
-                    build_simd: build_simd(),
-                };
-                let mark = if row.cpu_rates_rounded { "~" } else { "" };
-                let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| {
-                    x.map_or("—".into(), |x| format!("{mark}{}", f(x)))
-                };
-                println!(
-                    "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {:.2} | {:.2} | {} | {:.3e} | {} |",
-                    row.scene,
+                cells.push(Cell {
                     label,
+                    config,
+                    spp: *spp,
                     threads,
-                    spp,
-                    wall,
-                    cpu,
-                    or_dash(row.paths_per_cpu_second, &|r| format!("{:.3}", r / 1e6)),
-                    or_dash(row.photon_paths_per_cpu_second, &|r| format!(
-                        "{:.3}",
-                        r / 1e6
-                    )),
-                    row.rays_per_second / 1e6,
-                    row.rays_per_path,
-                    match row.rel_mse_se {
-                        Some(se) => format!("{:.3e} ± {se:.1e}", row.rel_mse),
-                        None => format!("{:.3e}", row.rel_mse),
-                    },
-                    row.rel_mse_times_spp,
-                    or_dash(row.efficiency, &|e| format!("{e:.1}"))
-                );
-                rows.push(row);
+                    integrator,
+                    pool,
+                    trials: Trials::default(),
+                });
             }
+        }
+        for trial in 0..args.trials as u64 {
+            let seed = args.seed.wrapping_add(trial);
+            for cell in &mut cells {
+                let budget = Budget::Samples(cell.spp);
+                let (out, wall, cpu) = timed(|| {
+                    cell.pool
+                        .install(|| cell.integrator.render(&scene, &budget, seed, &NoProgress))
+                });
+                let layers = output_layers(&out);
+                let e = errors(&layers[0].pixels, &r.image)
+                    .ok_or("image and reference sizes differ")?;
+                let t = &mut cell.trials;
+                t.walls.push(wall);
+                t.cpus.push(cpu);
+                t.rel_mses.push(e.rel_mse);
+                (t.paths, t.photons, t.rays) = (
+                    out.stats.samples,
+                    out.stats.photons,
+                    t.rays + out.stats.rays,
+                );
+            }
+        }
+        for cell in cells {
+            let (label, config, spp, threads) = (cell.label, cell.config, cell.spp, cell.threads);
+            let Trials {
+                walls,
+                cpus,
+                rel_mses,
+                paths,
+                photons,
+                rays,
+            } = cell.trials;
+            let n = args.trials as f64;
+            let (wall, cpu) = (walls.iter().sum::<f64>() / n, cpus.iter().sum::<f64>() / n);
+            let rel_mse = rel_mses.iter().sum::<f64>() / n;
+            // The trials are independent renders: the standard error of their mean.
+            let rel_mse_se = (args.trials > 1).then(|| {
+                let ss = rel_mses.iter().map(|x| (x - rel_mse).powi(2)).sum::<f64>();
+                (ss / (n - 1.0) / n).sqrt()
+            });
+            // Rates are totals over totals (a ratio of means, not a mean of ratios).
+            let row = Row {
+                scene: name.clone(),
+                integrator: config.to_ron(),
+                threads,
+                spp,
+                trials: args.trials,
+                paths,
+                wall_seconds: wall,
+                cpu_seconds: cpu,
+                cpu_seconds_per_trial: cpus,
+                rel_mse_per_trial: rel_mses,
+                paths_per_cpu_second: (cpu > 0.0).then(|| paths as f64 / cpu),
+                cpu_rates_rounded: cpu < PRECISE_TICKS * CLOCK_TICK,
+                photon_paths: photons,
+                photon_paths_per_cpu_second: (cpu > 0.0 && photons > 0)
+                    .then(|| photons as f64 / cpu),
+                rays_per_second: rays as f64 / (wall * n),
+                rays_per_path: rays as f64 / (paths as f64 * n),
+                rel_mse,
+                rel_mse_se,
+                rel_mse_times_spp: rel_mse * spp as f64,
+                // Undefined where the error is at or below the reference's noise (relMSE ≤ 0
+                // once its variance is subtracted), as in experiments.
+                efficiency: (cpu > 0.0 && rel_mse > 0.0).then(|| 1.0 / (rel_mse * cpu)),
+                cpu_model: cpu_model.clone(),
+                logical_cpus,
+                build_simd: build_simd(),
+            };
+            let mark = if row.cpu_rates_rounded { "~" } else { "" };
+            let or_dash = |x: Option<f64>, f: &dyn Fn(f64) -> String| {
+                x.map_or("—".into(), |x| format!("{mark}{}", f(x)))
+            };
+            println!(
+                "| {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {:.2} | {:.2} | {} | {:.3e} | {} |",
+                row.scene,
+                label,
+                threads,
+                spp,
+                wall,
+                cpu,
+                or_dash(row.paths_per_cpu_second, &|r| format!("{:.3}", r / 1e6)),
+                or_dash(row.photon_paths_per_cpu_second, &|r| format!(
+                    "{:.3}",
+                    r / 1e6
+                )),
+                row.rays_per_second / 1e6,
+                row.rays_per_path,
+                match row.rel_mse_se {
+                    Some(se) => format!("{:.3e} ± {se:.1e}", row.rel_mse),
+                    None => format!("{:.3e}", row.rel_mse),
+                },
+                row.rel_mse_times_spp,
+                or_dash(row.efficiency, &|e| format!("{e:.1}"))
+            );
+            rows.push(row);
         }
     }
     if rows.iter().any(|r| r.cpu_rates_rounded) {
