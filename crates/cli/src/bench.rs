@@ -108,14 +108,14 @@ const CLOCK_TICK: f64 = 0.01;
 /// Ticks of CPU time below which a row's CPU rates are marked as rounded (50: 2 %).
 const PRECISE_TICKS: f64 = 50.0;
 
-/// One row in the making: an integrator at a thread count, with its pool and its trials so far.
+/// One row in the making: an integrator on a pool of threads, and its trials so far.
 struct Cell<'a> {
     label: &'a str,
     config: &'a IntegratorConfig,
     spp: u32,
     threads: usize,
-    integrator: Box<dyn lightlab_integrators::Integrator>,
-    pool: rayon::ThreadPool,
+    integrator: &'a dyn lightlab_integrators::Integrator,
+    pool: &'a rayon::ThreadPool,
     trials: Trials,
 }
 
@@ -190,6 +190,21 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         integrator: args.reference.clone(),
         spp: args.reference_spp,
     };
+    // Built once: an integrator and a pool per thread count serve every scene.
+    let built = integrators
+        .iter()
+        .map(|(_, config, _)| config.build())
+        .collect::<Result<Vec<_>, _>>()?;
+    let pools = args
+        .threads
+        .iter()
+        .map(|&threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map_err(|e| format!("cannot start worker threads: {e}"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let mut rows = Vec::new();
     let cpu_model = cpu_model();
     let logical_cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -231,26 +246,21 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
         // trials go round-robin (trial 1 of every cell, then trial 2, …), so that a drift of the
         // machine's speed during the run falls on every row alike rather than on the last ones.
         let mut cells = Vec::new();
-        for (label, config, spp) in &integrators {
-            for &threads in &args.threads {
-                let integrator = config.build()?;
-                lightlab_integrators::memory::check_render(
-                    &*integrator,
-                    &scene,
-                    &Budget::Samples(*spp),
-                )
-                .map_err(|e| format!("{}: {e}", path.display()))?;
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .map_err(|e| format!("cannot start worker threads: {e}"))?;
+        for ((label, config, spp), integrator) in integrators.iter().zip(&built) {
+            lightlab_integrators::memory::check_render(
+                &**integrator,
+                &scene,
+                &Budget::Samples(*spp),
+            )
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+            for (&threads, pool) in args.threads.iter().zip(&pools) {
                 pool.install(|| integrator.render(&scene, &Budget::Samples(1), 0, &NoProgress));
                 cells.push(Cell {
                     label,
                     config,
                     spp: *spp,
                     threads,
-                    integrator,
+                    integrator: &**integrator,
                     pool,
                     trials: Trials::default(),
                 });
