@@ -496,6 +496,35 @@ fn settings_that_cannot_render_the_scene_are_refused() {
         .build()
         .unwrap();
     assert!(sobol.check_budget(&many).is_ok());
+    // Replicates: 1 to 4096 of them, and sample counts they divide (in each, the stratified
+    // samplers' limit).
+    for bad in ["Path(replicates: 0)", "Bdpt(replicates: 4097)"] {
+        let e = IntegratorConfig::from_ron(bad).unwrap_err().to_string();
+        assert!(
+            e.contains("replicates must be 1 (none) to 4096"),
+            "{bad}: {e}"
+        );
+    }
+    for config in ["Path(sampler: Sobol, replicates: 8)", "Bdpt(replicates: 8)"] {
+        let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
+        let e = integrator.check_budget(&Budget::Samples(60)).unwrap_err();
+        assert!(
+            e.contains("60 samples") && e.contains("multiple of 8, e.g. 56"),
+            "{config}: {e}"
+        );
+        assert!(integrator.check_budget(&Budget::Samples(64)).is_ok());
+        assert_eq!(integrator.best_sample_count(63), 56);
+        assert_eq!(integrator.best_sample_count(3), 8);
+    }
+    let strata = IntegratorConfig::from_ron("Path(sampler: Stratified, replicates: 2)")
+        .unwrap()
+        .build()
+        .unwrap();
+    assert!(strata.check_budget(&Budget::Samples(1 << 25)).is_ok());
+    let e = strata
+        .check_budget(&Budget::Samples((1 << 25) + 2))
+        .unwrap_err();
+    assert!(e.contains("in each replicate"), "{e}");
 }
 
 /// Messages are plain: values as the file writes them, not Rust's debug text.

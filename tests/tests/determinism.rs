@@ -36,6 +36,24 @@ fn photon_mapping_same_bits_on_one_and_two_threads() {
     }
 }
 
+/// Replicated samplers (randomised quasi-Monte Carlo): each pixel's replicate sums are merged in a
+/// fixed order too, so the images and their variances are the same bits on one and two threads.
+#[test]
+fn replicates_same_bits_on_one_and_two_threads() {
+    for config in [
+        "Path(sampler: Sobol, replicates: 4)",
+        "Bdpt(sampler: Stratified, replicates: 2)",
+    ] {
+        let one = render_with(1, 4, config, 8);
+        let two = render_with(2, 4, config, 8);
+        assert_eq!(one, two, "{config}");
+        assert!(
+            one.pixels.iter().any(|p| p.shared_var != [0.0; 3]),
+            "{config}"
+        );
+    }
+}
+
 #[test]
 fn same_seed_same_bits_on_one_and_two_threads() {
     let one = render_on(1, 5);

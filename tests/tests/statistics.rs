@@ -33,7 +33,10 @@ fn lower_box(res: (u32, u32)) -> lightlab_scene::Scene {
 /// spread and raise it). Before, light tracing squared each
 /// splat on its own (0.76), BDPT added its splats as an independent estimate (0.83) and the photon
 /// map left out its maps' noise (0.77); the photon map here has no direct light, so that the
-/// photons carry most of its variance.
+/// photons carry most of its variance. Sobol' samples in 4 replicates (randomised quasi-Monte
+/// Carlo) are tested the same way: their variance is the spread of the replicate means (ratios 0.97
+/// for Path and 1.01 for Bdpt with these seeds); s²/n over the samples gave 1.69 for Path (the
+/// samples beat independent ones).
 #[test]
 fn reported_pixel_variance_matches_the_variance_across_seeds() {
     let sc = lower_box((2, 1));
@@ -49,6 +52,8 @@ fn reported_pixel_variance_matches_the_variance_across_seeds() {
             "PhotonMap(max_bounces: 3, photons: 500, caustic_photons: 100, gather: Radius(Relative(0.15)), indirect: Direct, direct: false)",
             16,
         ),
+        ("Path(max_bounces: 3, sampler: Sobol, replicates: 4)", 32),
+        ("Bdpt(max_bounces: 3, sampler: Sobol, replicates: 4)", 16),
     ] {
         let seeds = 2048;
         let outs: Vec<RenderOutput> = (0..seeds)
@@ -78,7 +83,8 @@ fn reported_pixel_variance_matches_the_variance_across_seeds() {
 
 /// The image's standard error is the spread of the image average across seeds, for the
 /// integrators whose pixels are correlated (a light path splats into many; one photon map serves
-/// all): the variances agree within 30 %. 384 seeds, one image average each: the measured
+/// all), and for Sobol' samples in replicates, where it is the spread of the replicates' image
+/// averages: the variances agree within 30 %. 384 seeds, one image average each: the measured
 /// variance's relative standard deviation is 7 % (over four seed sets the ratios were 0.85–1.13),
 /// so 30 % is 4σ (false-failure rate below 1e-4 per integrator).
 #[test]
@@ -91,6 +97,7 @@ fn image_standard_error_matches_the_spread_across_seeds() {
             "PhotonMap(max_bounces: 3, photons: 500, caustic_photons: 100, gather: Nearest(k: 20, max_radius: Relative(0.3)), indirect: Direct, direct: false)",
             4,
         ),
+        ("Path(max_bounces: 3, sampler: Sobol, replicates: 4)", 8),
     ] {
         let seeds = 384;
         let outs: Vec<RenderOutput> = (0..seeds)
@@ -128,11 +135,13 @@ fn time_budget_renders_the_sample_budget_it_reaches() {
         "Light(max_bounces: 3)",
         "Bdpt(max_bounces: 3, sampler: Sobol)",
         "PhotonMap(max_bounces: 3, photons: 2000, caustic_photons: 100)",
+        "Path(max_bounces: 3, sampler: Sobol, replicates: 8)",
     ] {
         let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
         let timed = integrator.render(&sc, &Budget::Seconds(0.15), 3, &NoProgress);
         let n = timed.stats.spp;
         assert!(n >= 2, "{config}: only {n} samples in 0.15 s");
+        assert_eq!(n % integrator.replicates(), 0, "{config}: {n} samples");
         let counted = integrator.render(&sc, &Budget::Samples(n), 3, &NoProgress);
         assert_eq!(counted.stats.spp, n);
         assert!(
@@ -144,24 +153,28 @@ fn time_budget_renders_the_sample_budget_it_reaches() {
 
 /// With a sampler that must know its sample count (stratified), a time budget is met by a
 /// calibrated pilot and one render of the count that fills the rest: the result is exactly the
-/// render of that count, the pilot's time is reported and within the budget.
+/// render of that count, the pilot's time is reported and within the budget. In replicates, the
+/// count is a multiple of them.
 #[test]
 fn time_budget_with_a_stratified_sampler_calibrates_then_renders_one_count() {
     let sc = scene(&cornell(1.0, [0.0; 3], (12, 10)));
-    let integrator = IntegratorConfig::from_ron("Path(max_bounces: 3, sampler: Stratified)")
-        .unwrap()
-        .build()
-        .unwrap();
-    let timed = integrator.render(&sc, &Budget::Seconds(0.3), 3, &NoProgress);
-    let n = timed.stats.spp;
-    assert!(n >= 4, "{n} samples");
-    assert!(
-        timed.stats.pilot_seconds > 0.0 && timed.stats.pilot_seconds < 0.1,
-        "pilot {} s",
-        timed.stats.pilot_seconds
-    );
-    let counted = integrator.render(&sc, &Budget::Samples(n), 3, &NoProgress);
-    assert!(timed.film.pixels == counted.film.pixels);
+    for config in [
+        "Path(max_bounces: 3, sampler: Stratified)",
+        "Path(max_bounces: 3, sampler: Stratified, replicates: 3)",
+    ] {
+        let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
+        let timed = integrator.render(&sc, &Budget::Seconds(0.3), 3, &NoProgress);
+        let n = timed.stats.spp;
+        assert!(n >= 4, "{config}: {n} samples");
+        assert_eq!(n % integrator.replicates(), 0, "{config}: {n} samples");
+        assert!(
+            timed.stats.pilot_seconds > 0.0 && timed.stats.pilot_seconds < 0.1,
+            "{config}: pilot {} s",
+            timed.stats.pilot_seconds
+        );
+        let counted = integrator.render(&sc, &Budget::Samples(n), 3, &NoProgress);
+        assert!(timed.film.pixels == counted.film.pixels, "{config}");
+    }
 }
 
 /// MSE of `config`'s renders of `sc` against `reference` (pixel means), averaged over six seeds,

@@ -32,8 +32,9 @@ pub struct CompareArgs {
     /// A separate EXR holding B's variance of the mean.
     #[arg(long)]
     variance_b: Option<PathBuf>,
-    /// Independent samples per pixel behind A's variance (default: `spp` of the OUT.json Lightlab
-    /// wrote beside A, where its variance is `Independent`).
+    /// Independent samples per pixel behind A's variance, its degrees of freedom plus one
+    /// (default: from the OUT.json Lightlab wrote beside A: `spp` where its variance is
+    /// `Independent`, the replicates where it is `Replicates`).
     #[arg(long)]
     samples_a: Option<u64>,
     /// Likewise for B.
@@ -78,14 +79,17 @@ fn stats_of(path: &std::path::Path) -> Option<serde_json::Value> {
     Some(json["stats"].clone())
 }
 
-/// The samples per pixel behind an image's variance: `given`, else the `spp` of the statistics
-/// Lightlab wrote beside it when its variance is s²/n over independent samples.
+/// The independent samples per pixel behind an image's variance: `given`, else from the
+/// statistics Lightlab wrote beside it: its `spp` when the variance is s²/n over independent
+/// samples, its replicates when it is s²/R over replicate means.
 fn samples(stats: Option<&serde_json::Value>, given: Option<u64>) -> Option<u64> {
     given.or_else(|| {
-        let stats = stats?;
-        (stats["pixel_variance"] == "Independent")
-            .then(|| stats["spp"].as_u64())
-            .flatten()
+        let variance = &stats?["pixel_variance"];
+        if variance == "Independent" {
+            stats?["spp"].as_u64()
+        } else {
+            variance["Replicates"]["replicates"].as_u64()
+        }
     })
 }
 
@@ -273,5 +277,26 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
             z.exceeding, z.critical
         )),
         _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::samples;
+    use serde_json::json;
+
+    /// The degrees of freedom of an image's variance come from what its statistics say it is:
+    /// s²/n over `spp` independent samples, or s²/R over R replicate means (not `spp`: 64 samples
+    /// in 8 replicates give 7 degrees of freedom, not 63); none where it is no estimate.
+    #[test]
+    fn samples_behind_the_variance() {
+        let independent = json!({"spp": 64, "pixel_variance": "Independent"});
+        let replicates = json!({"spp": 64, "pixel_variance": {"Replicates": {"replicates": 8}}});
+        let correlated = json!({"spp": 64, "pixel_variance": {"NotAnEstimate": "stratified"}});
+        assert_eq!(samples(Some(&independent), None), Some(64));
+        assert_eq!(samples(Some(&replicates), None), Some(8));
+        assert_eq!(samples(Some(&correlated), None), None);
+        assert_eq!(samples(None, None), None);
+        assert_eq!(samples(Some(&replicates), Some(5)), Some(5));
     }
 }

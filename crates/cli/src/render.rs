@@ -261,6 +261,12 @@ fn image_mean(mean: [f64; 3], se: Option<[f64; 3]>, stats: &RenderStats) -> Stri
             "1 standard error, from the spread of {spp} camera sample passes and of {groups} \
              independent photon groups"
         ),
+        PixelVariance::Replicates { replicates } => format!(
+            "1 standard error, from the spread of {replicates} independent replicates of the \
+             sampler ({} degrees of freedom), {} samples each",
+            replicates - 1,
+            spp / replicates.max(&1)
+        ),
         // Passes at stratified instants, or not identically distributed: their spread is no
         // estimate of the standard error.
         PixelVariance::NotAnEstimate(why) => {

@@ -162,6 +162,15 @@ pub fn expand(desc: &ExperimentDesc, path: &Path) -> Result<Vec<RunSpec>, Experi
                 text += ")";
                 let config = IntegratorConfig::from_ron(&text)
                     .map_err(|e| method_error(desc, path, method, setting, &spans, &e))?;
+                // A budget the settings cannot take (a sample count that is no multiple of the
+                // replicates) is an error now, not after the runs before it.
+                config
+                    .build()
+                    .and_then(|i| {
+                        i.check_budget(&budget.into())
+                            .map_err(lightlab_integrators::ConfigError::Invalid)
+                    })
+                    .map_err(|e| method_error(desc, path, method, setting, &spans, &e))?;
                 let integrator = config.to_ron();
                 let setting_text = setting
                     .iter()

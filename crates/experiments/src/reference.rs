@@ -149,7 +149,7 @@ pub fn reference(
                 PixelVariance::NotAnEstimate(why) => {
                     image.variance = None;
                     Some(format!(
-                        "the reference's variance is not subtracted from the errors: {why}; render the reference with an independent sampler to have it subtracted"
+                        "the reference's variance is not subtracted from the errors: {why}; render the reference with an independent sampler, or with `replicates` (e.g. `sampler: Sobol, replicates: 16`), to have it subtracted"
                     ))
                 }
                 _ => None,

@@ -338,8 +338,60 @@ fn correlated_reference_variance_is_not_subtracted() {
             .all(|r| r.errors.reference_variance > 0.0)
     );
     assert_bias_and_variance_sum_to_mse(&o.out_dir);
+    // So it is for Sobol' samples in independent replicates, whose spread estimates it.
+    let (exp, dir3) = setup("replicated-reference");
+    let text = EXPERIMENT.replace(
+        r#"reference: Render(integrator: "Path(max_bounces: 3)", spp: 64)"#,
+        r#"reference: Render(integrator: "Path(max_bounces: 3, sampler: Sobol, replicates: 4)", spp: 64)"#,
+    );
+    std::fs::write(&exp, text).unwrap();
+    let o = run_experiment(
+        &exp,
+        &RunOptions::new(dir3.join("results")),
+        &NoProgress,
+        &NoProgress,
+        &|_| {},
+    )
+    .unwrap();
+    assert!(
+        !o.warnings.iter().any(|w| w.contains("not subtracted")),
+        "{:?}",
+        o.warnings
+    );
+    assert!(
+        finished_runs(&o.out_dir)
+            .unwrap()
+            .iter()
+            .all(|r| r.errors.reference_variance > 0.0)
+    );
     std::fs::remove_dir_all(dir).unwrap();
     std::fs::remove_dir_all(dir2).unwrap();
+    std::fs::remove_dir_all(dir3).unwrap();
+}
+
+/// A swept sample count that the method's replicates do not divide is refused before any run,
+/// with the file, line and column of the method.
+#[test]
+fn sample_counts_the_replicates_do_not_divide_are_refused_before_any_run() {
+    let (exp, dir) = setup("replicates-budget");
+    let text = EXPERIMENT.replace(
+        r#"settings: {"max_bounces": 3, "strategy": "BsdfOnly"}"#,
+        r#"settings: {"max_bounces": 3, "sampler": "Sobol", "replicates": 2}"#,
+    );
+    std::fs::write(&exp, text).unwrap();
+    let options = RunOptions::new(dir.join("results"));
+    let Err(err) = run_experiment(&exp, &options, &NoProgress, &NoProgress, &|_| {}) else {
+        panic!("the experiment ran");
+    };
+    let err = err.to_string();
+    assert!(
+        err.contains("tiny.ron:7:")
+            && err.contains("\"bsdf\"")
+            && err.contains("1 samples per pixel cannot be split into 2 equal replicates"),
+        "{err}"
+    );
+    assert!(!dir.join("results").join("tiny").join("runs").exists());
+    std::fs::remove_dir_all(dir).unwrap();
 }
 
 /// bias² + variance = mean MSE over each setting's trials, to rounding (both subtract the same

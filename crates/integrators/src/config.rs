@@ -157,6 +157,21 @@ pub(crate) fn check_common(
     Router::check(paths, layers).map_err(ConfigError::Invalid)
 }
 
+/// Most replicates a sampler's samples may be split into (each holds 24 bytes per pixel and layer).
+pub(crate) const MAX_REPLICATES: u32 = 4096;
+
+/// Checks a `replicates` setting: 1 (none) to [`MAX_REPLICATES`].
+pub(crate) fn check_replicates(replicates: u32) -> Result<(), ConfigError> {
+    if !(1..=MAX_REPLICATES).contains(&replicates) {
+        return invalid(format!(
+            "replicates must be 1 (none) to {MAX_REPLICATES}: the independent replicates each \
+             pixel's samples are split into for a variance estimate, at least 2 for one (16 is \
+             usual); got {replicates}"
+        ));
+    }
+    Ok(())
+}
+
 /// Defines an integrator's settings struct `$name` (RON name `$ron`): the fields every integrator
 /// shares — `max_bounces`, `min_bounces`, `russian_roulette` first, `paths` and `layers` last,
 /// documented once here — around its own, each given with its default; serde defaults and

@@ -13,12 +13,14 @@
 pub struct PixelSums {
     /// Mean of the samples so far, per channel (Welford's running mean).
     pub mean: [f64; 3],
-    /// Σ (xᵢ − mean)², per channel.
+    /// Σ (xᵢ − mean)², per channel (kept 0 where the samples form replicates: see `shared_var`).
     pub m2: [f64; 3],
     /// Samples so far.
     pub count: u64,
-    /// Variance of the mean contributed by what all samples share (Jensen's photon maps, estimated
-    /// across independent photon groups), added to s²/n.
+    /// Variance of the mean estimated apart from the samples' own s²/n: the share of what all
+    /// samples share (Jensen's photon maps, estimated across independent photon groups), added to
+    /// s²/n; or, where the samples form independent replicates of a sampler, all of it (the spread
+    /// of the replicate means; `m2` is then 0).
     pub shared_var: [f64; 3],
 }
 

@@ -102,6 +102,13 @@ pub trait Integrator: Send + Sync {
         None
     }
 
+    /// Independent replicates the sampler's samples are split into (`replicates`: randomised
+    /// quasi-Monte Carlo, [`lightlab_samplers::replicate_sample`]); 1 for none. Sample counts are
+    /// then multiples of it.
+    fn replicates(&self) -> u32 {
+        1
+    }
+
     /// Whether the sampler must know the number of samples before the first one (`Stratified`,
     /// `LatinHypercube`), so that a time budget cannot simply continue the sequence.
     fn needs_sample_count(&self) -> bool {
@@ -109,9 +116,14 @@ pub trait Integrator: Send + Sync {
     }
 
     /// The sample count up to `n` that the sampler handles best (a time budget's calibrated count
-    /// is rounded down to it).
+    /// is rounded down to it): a multiple of the replicates, each of a count the sampler
+    /// stratifies well; at least one sample per replicate.
     fn best_sample_count(&self, n: u32) -> u32 {
-        self.sampler().map_or(n, |s| s.best_count_up_to(n))
+        let r = self.replicates();
+        let per_replicate = (n / r).max(1);
+        r * self
+            .sampler()
+            .map_or(per_replicate, |s| s.best_count_up_to(per_replicate))
     }
 
     /// Bytes the render of `scene` will hold at its peak, as far as is known before it starts:
@@ -126,13 +138,22 @@ pub trait Integrator: Send + Sync {
         Ok(())
     }
 
-    /// Whether the sampler can take `budget`'s samples per pixel (an error says why not).
+    /// Whether the sampler can take `budget`'s samples per pixel (an error says why not): with
+    /// replicates, a multiple of them.
     fn check_budget(&self, budget: &Budget) -> Result<(), String> {
+        let r = self.replicates();
         match (budget, self.sampler()) {
-            (Budget::Samples(n), Some(s)) if *n > s.max_samples() => Err(format!(
-                "the {s:?} sampler takes at most {} samples per pixel (f32 separates no more \
-                 strata of [0, 1)), got {n}: use Independent, Halton or Sobol",
-                s.max_samples()
+            (Budget::Samples(n), _) if n % r != 0 => Err(format!(
+                "{n} samples per pixel cannot be split into {r} equal replicates \
+                 (`replicates: {r}`): give a multiple of {r}, e.g. {}",
+                (n / r).max(1) * r
+            )),
+            (Budget::Samples(n), Some(s)) if n / r > s.max_samples() => Err(format!(
+                "the {s:?} sampler takes at most {} samples per pixel{} (f32 separates no \
+                 more strata of [0, 1)), got {}: use Independent, Halton or Sobol",
+                s.max_samples(),
+                if r > 1 { " in each replicate" } else { "" },
+                n / r
             )),
             _ => Ok(()),
         }
@@ -151,7 +172,8 @@ pub trait Integrator: Send + Sync {
     /// or all 20 ms, below which timing noise dominated) measures the time
     /// per sample, and the render is `Budget::Samples(N)` with the N that fills the rest of the
     /// budget, rounded down to a count the sampler stratifies well (`best_sample_count`: no
-    /// N-rooks fallback for `Stratified`). The pilot's time counts in `wall_seconds` (and is reported as `pilot_seconds`).
+    /// N-rooks fallback for `Stratified`, a multiple of the replicates; the pilot's counts are
+    /// too). The pilot's time counts in `wall_seconds` (and is reported as `pilot_seconds`).
     fn render(
         &self,
         scene: &Scene,
@@ -162,7 +184,7 @@ pub trait Integrator: Send + Sync {
         match *budget {
             Budget::Seconds(seconds) if self.needs_sample_count() => {
                 let start = Instant::now();
-                let mut spp = 1u32;
+                let mut spp = self.replicates();
                 let per_sample = loop {
                     let t0 = Instant::now();
                     self.render_passes(

@@ -15,9 +15,10 @@
 //! Work items are 16 × 16 tiles (of one sample index when the integrator splats); their results
 //! are merged in tile order, so the image is bit-identical on any number of threads.
 
+use crate::Integrator;
 use crate::film::{Film, PixelSums};
 use crate::paths::Router;
-use crate::render::{Counters, RenderOutput};
+use crate::render::{Counters, PixelVariance, RenderOutput};
 use crate::sink::Sink;
 use lightlab_core::Progress;
 use lightlab_samplers::{Sampler, SamplerConfig, SamplerVisitor};
@@ -36,7 +37,7 @@ pub(crate) struct RenderArgs<'a, 'b> {
 }
 
 /// An integrator whose render loop is monomorphised per sampler type.
-pub(crate) trait SampledRender: Sync {
+pub(crate) trait SampledRender: Integrator {
     /// The sampler the settings name.
     fn sampler_config(&self) -> SamplerConfig;
 
@@ -49,7 +50,7 @@ pub(crate) trait SampledRender: Sync {
 }
 
 /// Runs `integrator`'s render loop for the sampler type its settings name (constructed for the
-/// budget's sample count; a time budget's sequence starts as one sample would).
+/// budget's sample count, per replicate; a time budget's sequence starts as one sample would).
 pub(crate) fn render_sampled<I: SampledRender>(
     integrator: &I,
     scene: &Scene,
@@ -75,9 +76,10 @@ pub(crate) fn render_sampled<I: SampledRender>(
         progress,
         on_pass,
     };
-    integrator
-        .sampler_config()
-        .dispatch(budget.samples_or(1), With { integrator, args })
+    integrator.sampler_config().dispatch(
+        budget.samples_or(1) / integrator.replicates().max(1),
+        With { integrator, args },
+    )
 }
 
 /// How much work a render may do.
@@ -121,6 +123,8 @@ pub(crate) struct Schedule<'a> {
     progress: &'a dyn Progress,
     /// Permille of a time budget reported so far.
     reported: AtomicU64,
+    /// Every pass renders a multiple of this many samples (the sampler's replicates).
+    step: u32,
 }
 
 impl<'a> Schedule<'a> {
@@ -137,6 +141,7 @@ impl<'a> Schedule<'a> {
             first_pass: None,
             progress,
             reported: AtomicU64::new(0),
+            step: 1,
         }
     }
 
@@ -146,16 +151,23 @@ impl<'a> Schedule<'a> {
     }
 
     /// The number of samples of the next pass, `done` samples having been rendered, at most
-    /// `preferred`; `None` when the budget is spent. Under a time budget the passes halve the
-    /// remaining time, at the rate measured so far, and the render stops when the remaining time
-    /// is less than half a one-sample pass, so that it ends within half a sample of the budget.
+    /// `preferred` (or one step); `None` when the budget is spent. Under a time budget the passes
+    /// halve the remaining time, at the rate measured so far, and the render stops when the
+    /// remaining time is less than half a one-step pass, so that it ends within half a step (a
+    /// sample, or one per replicate) of the budget. Every pass is a multiple of the step (a sample
+    /// budget is one already: `Integrator::check_budget`).
     pub fn next_pass(&mut self, done: u32, preferred: u32) -> Option<u32> {
-        let preferred = preferred.max(1);
+        let step = self.step;
+        let preferred = (preferred / step).max(1) * step;
         let n = match self.budget {
             Budget::Samples(n) => (done < n).then(|| preferred.min(n - done))?,
             Budget::Seconds(seconds) => {
                 let since_first = self.first_pass.map(|f| f.elapsed().as_secs_f64());
-                timed_pass(seconds, self.elapsed(), since_first, done)?.min(preferred)
+                let steps = timed_pass(seconds, self.elapsed(), since_first, done / step)?;
+                let room = (u32::MAX - done) / step;
+                (room > 0)
+                    .then(|| steps.clamp(1, room) * step)?
+                    .min(preferred)
             }
         };
         self.first_pass.get_or_insert_with(Instant::now);
@@ -219,6 +231,10 @@ pub(crate) struct PassSpec {
     /// Whether sample indices are independent and identically distributed (an independent
     /// sampler), so that the film's s²/n and the image's standard error are estimates.
     pub independent: bool,
+    /// Independent replicates of the sampler (`lightlab_samplers::replicate_sample`; 1: none):
+    /// sample index i belongs to replicate i mod R, passes are multiples of R, and each pixel's
+    /// variance is the spread of its R replicate means, an estimate whatever the sampler.
+    pub replicates: u32,
 }
 
 impl PassSpec {
@@ -232,16 +248,35 @@ impl PassSpec {
             splats: false,
             groups: 0,
             independent: true,
+            replicates: 1,
+        }
+    }
+
+    /// What the films' variance is for an estimator whose samples (`samples`, as the message names
+    /// them) come from `sampler`: the replicates' spread, s²/n over independent samples, or no
+    /// estimate.
+    pub fn pixel_variance(&self, sampler: &SamplerConfig, samples: &str) -> PixelVariance {
+        if self.replicates > 1 {
+            PixelVariance::Replicates {
+                replicates: self.replicates,
+            }
+        } else if self.independent {
+            PixelVariance::Independent
+        } else {
+            PixelVariance::NotAnEstimate(sampler.correlation_note(samples))
         }
     }
 
     /// Bytes the driver holds at once for these images: a film per slot (each pixel's
-    /// statistics, with its photon-group sums), and either the tiles' copies of them being merged
-    /// back (`pixel_pass`) or the pass's pixel buffer and one sample index's values (`splat_pass`).
+    /// statistics, with its photon-group or replicate sums), and either the tiles' copies of them
+    /// being merged back (`pixel_pass`) or the pass's pixel buffer and one sample index's values
+    /// (`splat_pass`).
     pub fn bytes(&self) -> u64 {
         let cells = self.width as u64 * self.height as u64 * self.slots as u64;
-        let per_cell =
-            (size_of::<PixelSums>() + size_of::<[f64; 3]>() * group_stride(self.groups)) as u64;
+        let per_cell = (size_of::<PixelSums>()
+            + size_of::<[f64; 3]>()
+                * (group_stride(self.groups) + replicate_stride(self.replicates)))
+            as u64;
         let passing = if self.splats {
             (size_of::<[f64; 3]>() + size_of::<[f32; 3]>()) as u64
         } else {
@@ -335,10 +370,13 @@ where
     let tiles: Vec<(u32, u32)> = (0..height.div_ceil(TILE))
         .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
+    schedule.step = spec.replicates.max(1);
     let mut state = State {
         films: (0..spec.slots).map(|_| Film::new(width, height)).collect(),
         groups: vec![[0.0; 3]; pixels * spec.slots * group_stride(spec.groups)],
         image_groups: vec![[0.0; 3]; spec.slots * group_stride(spec.groups)],
+        replicas: vec![[0.0; 3]; pixels * spec.slots * replicate_stride(spec.replicates)],
+        image_replicas: vec![[0.0; 3]; spec.slots * replicate_stride(spec.replicates)],
         passes: vec![PixelSums::default(); spec.slots],
         counters: Counters::default(),
         extras: Vec::new(),
@@ -384,6 +422,10 @@ struct State<E> {
     groups: Vec<[f64; 3]>,
     /// Per slot, the photon-group statistics of the image average of each sample index.
     image_groups: Vec<[f64; 3]>,
+    /// Per pixel, slot and replicate (`PassSpec::replicates` > 1), the sum of its samples.
+    replicas: Vec<[f64; 3]>,
+    /// Per slot and replicate, the sum of its sample indices' image averages.
+    image_replicas: Vec<[f64; 3]>,
     /// Per slot: statistics of the image-wide average of each sample index.
     passes: Vec<PixelSums>,
     counters: Counters,
@@ -393,6 +435,10 @@ struct State<E> {
 impl<E> State<E> {
     /// Sets each film's shared variance and image standard error from what has been summed.
     fn finish(&mut self, spec: &PassSpec) {
+        if spec.replicates > 1 {
+            self.finish_replicates(spec.replicates as usize);
+            return;
+        }
         let (g, stride) = (spec.groups, group_stride(spec.groups));
         if g > 1 {
             for (slot, film) in self.films.iter_mut().enumerate() {
@@ -421,6 +467,44 @@ impl<E> State<E> {
                 var.map(f64::sqrt)
             });
         }
+    }
+}
+
+impl<E> State<E> {
+    /// With R replicates, each pixel's variance of the mean is the spread of its R replicate means
+    /// (every replicate holding n/R samples): s²/R over them, R − 1 degrees of freedom (the
+    /// randomised quasi-Monte Carlo estimate; L'Ecuyer & Lemieux 2002, eq. 2). It replaces s²/n over
+    /// the samples (`m2` is kept 0, the estimate is `shared_var`); the image's standard error comes
+    /// from the replicates' image averages the same way.
+    fn finish_replicates(&mut self, r: usize) {
+        let spread = |sums: &[[f64; 3]], per: f64| {
+            let means: Vec<[f64; 3]> = sums.iter().map(|s| s.map(|x| x / per)).collect();
+            std::array::from_fn(|c| {
+                let mean = means.iter().map(|m| m[c]).sum::<f64>() / r as f64;
+                let ss = means.iter().map(|m| (m[c] - mean).powi(2)).sum::<f64>();
+                ss / (r * (r - 1)) as f64
+            })
+        };
+        let slots = self.films.len();
+        for (slot, film) in self.films.iter_mut().enumerate() {
+            let mut per = 0.0;
+            for (i, p) in film.pixels.iter_mut().enumerate() {
+                per = (p.count / r as u64) as f64;
+                p.m2 = [0.0; 3];
+                p.shared_var = spread(&self.replicas[(i * slots + slot) * r..][..r], per);
+            }
+            let image = &self.image_replicas[slot * r..][..r];
+            film.image_se = (per > 0.0).then(|| spread(image, per).map(f64::sqrt));
+        }
+    }
+}
+
+/// Entries per pixel and slot of replicate sums: R, or none without replicates.
+fn replicate_stride(replicates: u32) -> usize {
+    if replicates > 1 {
+        replicates as usize
+    } else {
+        0
     }
 }
 
@@ -497,6 +581,7 @@ fn pixel_pass<E, F>(
     struct TileOut<E> {
         sums: Vec<PixelSums>,
         groups: Vec<[f64; 3]>,
+        replicas: Vec<[f64; 3]>,
         /// Per sample index and slot: Σ over the tile's pixels.
         image: Vec<[f64; 3]>,
         /// Per sample index, slot and photon group: Σ over the tile's pixels of the group's share.
@@ -506,10 +591,12 @@ fn pixel_pass<E, F>(
     }
     let (slots, g) = (spec.slots, spec.groups);
     let stride = slots * group_stride(g);
+    let r = replicate_stride(spec.replicates);
     let n = (indices.end - indices.start) as usize;
     let width = spec.width;
     let films = &state.films;
     let groups = &state.groups;
+    let replicas = &state.replicas;
     let out: Vec<TileOut<E>> = tiles
         .par_iter()
         .map(|&(x0, y0)| {
@@ -517,6 +604,7 @@ fn pixel_pass<E, F>(
             let mut t = TileOut {
                 sums: Vec::with_capacity((w * h) as usize * slots),
                 groups: Vec::with_capacity((w * h) as usize * stride),
+                replicas: Vec::with_capacity((w * h) as usize * slots * r),
                 image: vec![[0.0; 3]; n * slots],
                 image_groups: vec![[0.0; 3]; n * slots * g],
                 counters: Counters::default(),
@@ -531,6 +619,9 @@ fn pixel_pass<E, F>(
                     let gbase = t.groups.len();
                     t.groups
                         .extend_from_slice(&groups[i * stride..(i + 1) * stride]);
+                    let rbase = t.replicas.len();
+                    t.replicas
+                        .extend_from_slice(&replicas[i * slots * r..(i + 1) * slots * r]);
                     sink.running = t.sums[base];
                     for (k, index) in indices.clone().enumerate() {
                         sink.clear();
@@ -538,6 +629,9 @@ fn pixel_pass<E, F>(
                         for s in 0..slots {
                             let v = to_f64(sink.values[s]);
                             t.sums[base + s].add(v);
+                            if r > 0 {
+                                add_to(&mut t.replicas[rbase + s * r + index as usize % r], v);
+                            }
                             let acc = &mut t.image[k * slots + s];
                             for c in 0..3 {
                                 acc[c] += v[c];
@@ -573,6 +667,8 @@ fn pixel_pass<E, F>(
             }
             state.groups[i * stride..(i + 1) * stride]
                 .copy_from_slice(&t.groups[k * stride..(k + 1) * stride]);
+            state.replicas[i * slots * r..(i + 1) * slots * r]
+                .copy_from_slice(&t.replicas[k * slots * r..(k + 1) * slots * r]);
         }
         for (acc, v) in image
             .iter_mut()
@@ -586,7 +682,7 @@ fn pixel_pass<E, F>(
         state.counters.merge(&t.counters);
         state.extras.push(t.extra);
     }
-    add_image_averages(state, &image, slots);
+    add_image_averages(state, &image, slots, indices.start, r);
     if g > 0 {
         let pixels = state.films[0].pixels.len() as f64;
         for per_index in image_groups.chunks(slots * g) {
@@ -598,14 +694,36 @@ fn pixel_pass<E, F>(
     }
 }
 
-/// Adds the image-wide average of each sample index (`image`: per index and slot, Σ over pixels)
-/// to the per-slot statistics.
-fn add_image_averages<E>(state: &mut State<E>, image: &[[f64; 3]], slots: usize) {
+/// Adds the image-wide average of each sample index (`image`: per index from `first` on and per
+/// slot, Σ over pixels) to the per-slot statistics, and to its replicate's sum (`r` replicates,
+/// 0 for none).
+fn add_image_averages<E>(
+    state: &mut State<E>,
+    image: &[[f64; 3]],
+    slots: usize,
+    first: u64,
+    r: usize,
+) {
     let pixels = state.films[0].pixels.len() as f64;
-    for per_index in image.chunks(slots) {
-        for (stats, sum) in state.passes.iter_mut().zip(per_index) {
-            stats.add(sum.map(|s| s / pixels));
+    for (index, per_index) in (first..).zip(image.chunks(slots)) {
+        for (s, (stats, sum)) in state.passes.iter_mut().zip(per_index).enumerate() {
+            let average = sum.map(|x| x / pixels);
+            stats.add(average);
+            if r > 0 {
+                add_to(
+                    &mut state.image_replicas[s * r + index as usize % r],
+                    average,
+                );
+            }
         }
+    }
+}
+
+/// `acc += v`, per channel.
+#[inline]
+fn add_to(acc: &mut [f64; 3], v: [f64; 3]) {
+    for c in 0..3 {
+        acc[c] += v[c];
     }
 }
 
@@ -662,10 +780,11 @@ fn splat_pass<E, F>(
         })
         .collect();
     let pixels = films[0].pixels.len();
+    let r = replicate_stride(spec.replicates);
     let mut buffer = vec![[0.0f64; 3]; pixels * slots];
     let mut image = vec![[0.0f64; 3]; slots];
     let mut out = out.into_iter();
-    for _ in indices {
+    for index in indices {
         buffer.fill([0.0; 3]);
         for &(x0, y0) in tiles {
             let item = out.next().expect("one result per work item");
@@ -693,12 +812,16 @@ fn splat_pass<E, F>(
         for (i, values) in buffer.chunks(slots).enumerate() {
             for (s, v) in values.iter().enumerate() {
                 state.films[s].pixels[i].add(*v);
-                for c in 0..3 {
-                    image[s][c] += v[c];
+                add_to(&mut image[s], *v);
+                if r > 0 {
+                    add_to(
+                        &mut state.replicas[(i * slots + s) * r + index as usize % r],
+                        *v,
+                    );
                 }
             }
         }
-        add_image_averages(state, &image, slots);
+        add_image_averages(state, &image, slots, index, r);
     }
 }
 

@@ -11,17 +11,17 @@
 //! walk's BSDF lobe (1), BSDF direction (2), Russian roulette (1) — consumed whether or not they
 //! are used (see `walk`).
 
-use crate::config::{ConfigError, Validate, invalid, settings};
+use crate::config::{ConfigError, Validate, check_replicates, invalid, settings};
 use crate::nee::{Competition, emission_found, environment_found, sample_direct};
 use crate::passes::{PassSpec, RenderArgs, SampledRender, Schedule, render_sampled, run_passes};
 use crate::paths::Router;
-use crate::render::{Counters, PixelVariance, Technique, named};
+use crate::render::{Counters, Technique, named};
 use crate::sink::Sink;
 use crate::walk::{Arrival, Directions, PathVertex, Visitor, Walk, from_camera};
 use crate::{Budget, Film, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, Ray, Rgb, TransportMode};
-use lightlab_samplers::{Sampler, SamplerConfig};
+use lightlab_samplers::{Sampler, SamplerConfig, replicate_sample};
 use lightlab_scene::Scene;
 use serde::{Deserialize, Serialize};
 
@@ -36,12 +36,19 @@ settings! {
         /// Where the sample values come from: `Independent`, `Stratified`, `LatinHypercube`, `Halton`
         /// or `Sobol` (see `lightlab_samplers::SamplerConfig`). Default `Independent`.
         sampler: SamplerConfig = SamplerConfig::Independent,
+        /// Split each pixel's samples into this many independent replicates of the sampler (each
+        /// its own scramble or stratification), so that the spread of the replicate means gives
+        /// the variance of the pixel mean for any sampler (randomised quasi-Monte Carlo;
+        /// `lightlab_samplers::replicate_sample`). Sample counts must be multiples of it. 1 (no
+        /// replicates) to 4096. Default 1.
+        replicates: u32 = 1,
     }
 }
 
 impl Validate for PathConfig {
     fn validate(&self) -> Result<(), ConfigError> {
         self.check_common()?;
+        check_replicates(self.replicates)?;
         if !self.shadows && matches!(self.strategy, Strategy::BsdfOnly | Strategy::Uniform) {
             return invalid(format!(
                 "shadows: false switches off the visibility test of next-event estimation, which \
@@ -88,6 +95,7 @@ impl PathTracer {
     fn pass_spec(&self, scene: &Scene) -> PassSpec {
         PassSpec {
             independent: self.config.sampler.independent(),
+            replicates: self.config.replicates,
             ..PassSpec::layers(scene, &self.router)
         }
     }
@@ -227,6 +235,10 @@ impl Integrator for PathTracer {
         Some(&self.config.sampler)
     }
 
+    fn replicates(&self) -> u32 {
+        self.config.replicates
+    }
+
     fn memory_bytes(&self, scene: &Scene) -> u64 {
         self.pass_spec(scene).bytes()
     }
@@ -291,6 +303,7 @@ impl SampledRender for PathTracer {
             |x, y, index, sink, counters, _: &mut ()| {
                 let mut sampler = prototype.clone();
                 let pixel = y as u64 * width as u64 + x as u64;
+                let (seed, index) = replicate_sample(seed, index, tracer.config.replicates);
                 sampler.start_pixel_sample(seed, pixel, index);
                 let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                 tracer.li(scene, film, &mut sampler, sink, counters);
@@ -307,11 +320,7 @@ impl SampledRender for PathTracer {
             width as u64 * height as u64 * out.spp as u64,
             &out.counters,
             &[Technique::Emission, Technique::NextEvent],
-            if spec.independent {
-                PixelVariance::Independent
-            } else {
-                PixelVariance::NotAnEstimate(tracer.config.sampler.correlation_note("samples"))
-            },
+            spec.pixel_variance(&tracer.config.sampler, "samples"),
         );
         RenderOutput {
             film,

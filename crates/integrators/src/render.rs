@@ -17,6 +17,13 @@ pub enum PixelVariance {
         /// Independent photon groups per map.
         groups: u32,
     },
+    /// The spread of `replicates` independent replicates of the sampler: s²/R over each pixel's
+    /// R replicate means, an unbiased estimate of the variance of the pixel mean with R − 1
+    /// degrees of freedom, whatever the sampler (randomised quasi-Monte Carlo).
+    Replicates {
+        /// Independent replicates per pixel.
+        replicates: u32,
+    },
     /// Not the variance of the mean; why.
     NotAnEstimate(String),
 }

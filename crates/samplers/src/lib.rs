@@ -2,7 +2,8 @@
 //! ([`Independent`], [`Stratified`], [`LatinHypercube`], [`Halton`], [`Sobol`], chosen in settings by
 //! [`SamplerConfig`]), deterministic seeding, warps from the unit square to the domains integrators
 //! need, discrete and piecewise-constant distributions ([`Distribution1D`], [`Distribution2D`],
-//! [`AliasTable`]) and multiple-importance-sampling heuristics.
+//! [`AliasTable`]), multiple-importance-sampling heuristics, and independent replicates of a
+//! sampler for randomised quasi-Monte Carlo variance estimates ([`replicate_sample`]).
 //!
 //! Determinism (design.md): every value depends only on (seed, pixel, sample index, dimension) — or
 //! (seed, photon index) — never on thread or tile order.
@@ -16,6 +17,7 @@ mod independent;
 pub mod latin;
 pub mod lowdiscrepancy;
 pub mod mis;
+mod replicates;
 mod seeding;
 pub mod sobol;
 pub mod stratified;
@@ -28,6 +30,7 @@ pub use distribution2d::Distribution2D;
 pub use halton::Halton;
 pub use independent::Independent;
 pub use latin::LatinHypercube;
+pub use replicates::replicate_sample;
 pub use seeding::{hash_step, hash_u64s, pixel_stream, splitmix64};
 pub use sobol::Sobol;
 pub use stratified::Stratified;

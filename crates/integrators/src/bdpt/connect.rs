@@ -7,7 +7,7 @@ use crate::render::Counters;
 use crate::walk::{Kind, PathVertex, connect_to_lens, geometry_term, unoccluded};
 use glam::Vec2;
 use lightlab_core::{Rgb, TransportMode};
-use lightlab_samplers::{Independent, Sampler};
+use lightlab_samplers::{Independent, Sampler, replicate_sample};
 use lightlab_scene::Scene;
 
 /// The class of the path strategy (s, t) joins, light first (for s = 0 the last camera vertex is
@@ -64,6 +64,7 @@ impl Bdpt {
         let cfg = &self.config;
         let max_bounces = cfg.max_bounces.unwrap_or(u32::MAX - 2);
         let pixel = y as u64 * scene.camera.width as u64 + x as u64;
+        let (seed, index) = replicate_sample(seed, index, cfg.replicates);
         sampler.start_pixel_sample(seed, pixel, index);
         light_sampler.start_pixel_sample(seed ^ LIGHT_STREAM, pixel, index);
         let film = Vec2::new(x as f32, y as f32) + sampler.next_2d();

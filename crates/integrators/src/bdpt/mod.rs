@@ -46,13 +46,13 @@ pub(crate) use mis::PathDensities;
 pub(crate) use mis::{Reverse, reverse_densities, used_vertices};
 pub(crate) use subpaths::{camera_subpath, light_subpath};
 
-use crate::config::{ConfigError, Validate, invalid, settings};
+use crate::config::{ConfigError, Validate, check_replicates, invalid, settings};
 use crate::film::Film;
 use crate::passes::{PassSpec, RenderArgs, SampledRender, Schedule, render_sampled, run_passes};
 use crate::paths::Router;
 use crate::provenance::Outlier;
 use crate::provenance::SplatSource;
-use crate::render::{Counters, PixelVariance, Technique};
+use crate::render::{Counters, Technique};
 use crate::walk::{Directions, PathVertex, Walk};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use lightlab_core::{Progress, TransportMode};
@@ -67,6 +67,12 @@ settings! {
         /// Sampler of the camera subpaths (the light subpaths use independent samples). Default
         /// `Independent`.
         sampler: SamplerConfig = SamplerConfig::Independent,
+        /// Split each pixel's sample passes into this many independent replicates of the sampler
+        /// (camera and light subpaths alike), so that the spread of the replicate means gives the
+        /// variance of the pixel mean for any sampler (randomised quasi-Monte Carlo;
+        /// `lightlab_samplers::replicate_sample`). Sample counts must be multiples of it. 1 (no
+        /// replicates) to 4096. Default 1.
+        replicates: u32 = 1,
         /// Strategy weights: `Balance`, `Power`, `Uniform` or `Only(s: S, t: T)`. Default `Balance`.
         mis: Mis = Mis::Balance,
         /// Also write every strategy (s, t) as layers `s{s}t{t}` (MIS-weighted; they sum to the image)
@@ -84,6 +90,7 @@ settings! {
 impl Validate for BdptConfig {
     fn validate(&self) -> Result<(), ConfigError> {
         self.check_common()?;
+        check_replicates(self.replicates)?;
         if let Mis::Only { s, t } = self.mis
             && t == 0
         {
@@ -224,6 +231,10 @@ impl Integrator for Bdpt {
         Some(&self.config.sampler)
     }
 
+    fn replicates(&self) -> u32 {
+        self.config.replicates
+    }
+
     fn memory_bytes(&self, scene: &Scene) -> u64 {
         self.pass_spec(scene).bytes()
     }
@@ -251,6 +262,7 @@ impl Bdpt {
             slots: image.slots + 2 * self.strategies.len(),
             splats: true,
             independent: self.config.sampler.independent(),
+            replicates: self.config.replicates,
             ..image
         }
     }
@@ -390,11 +402,7 @@ impl SampledRender for Bdpt {
             pixels * out.spp as u64,
             &out.counters,
             &[Technique::Connection, Technique::CameraConnection],
-            if spec.independent {
-                PixelVariance::Independent
-            } else {
-                PixelVariance::NotAnEstimate(cfg.sampler.correlation_note("camera subpaths"))
-            },
+            spec.pixel_variance(&cfg.sampler, "camera subpaths"),
         );
         let mut outliers: Vec<Outlier> = out
             .extras

@@ -522,6 +522,7 @@ impl SampledRender for Radiosity {
             splats: false,
             groups: 0,
             independent: false,
+            replicates: 1,
         };
         let out = run_passes(
             &spec,
