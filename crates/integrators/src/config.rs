@@ -160,6 +160,11 @@ pub(crate) fn check_common(
 /// Most replicates a sampler's samples may be split into (each holds 24 bytes per pixel and layer).
 pub(crate) const MAX_REPLICATES: u32 = 4096;
 
+/// Whether a setting is 1: `replicates` is not written then (`IntegratorConfig::to_ron`).
+pub(crate) fn is_one(n: &u32) -> bool {
+    *n == 1
+}
+
 /// Checks a `replicates` setting: 1 (none) to [`MAX_REPLICATES`].
 pub(crate) fn check_replicates(replicates: u32) -> Result<(), ConfigError> {
     if !(1..=MAX_REPLICATES).contains(&replicates) {
@@ -296,7 +301,10 @@ impl IntegratorConfig {
         Ok(config)
     }
 
-    /// The settings written back as RON, every field explicit.
+    /// The settings written back as RON, every field explicit but those added after experiments
+    /// had recorded runs (`replicates`), which are written only when not at their default: the
+    /// text names a run (its id, its seed, its reference's cache key), so that settings from
+    /// before keep their names.
     pub fn to_ron(&self) -> String {
         ron_options()
             .to_string_pretty(
@@ -379,6 +387,21 @@ mod tests {
         }
         let s = IntegratorConfig::from_ron("Path(sampler: Sobol)").unwrap();
         assert_eq!(IntegratorConfig::from_ron(&s.to_ron()).unwrap(), s);
+        // The text of default settings names every committed run (id, seed, reference cache key):
+        // a field added since must not change it.
+        assert_eq!(
+            IntegratorConfig::from_ron("Path()").unwrap().to_ron(),
+            "Path(max_bounces: None, min_bounces: 0, russian_roulette: 1, roulette_threshold: 0.5, strategy: Mis, shadows: true, sampler: Independent, paths: None, layers: Off)"
+        );
+        assert_eq!(
+            IntegratorConfig::from_ron("Bdpt()").unwrap().to_ron(),
+            "Bdpt(max_bounces: None, min_bounces: 0, russian_roulette: 1, roulette_threshold: 0.5, sampler: Independent, mis: Balance, strategy_layers: false, outliers: None, paths: None, layers: Off)"
+        );
+        for text in ["Path(sampler: Sobol, replicates: 8)", "Bdpt(replicates: 2)"] {
+            let c = IntegratorConfig::from_ron(text).unwrap();
+            assert!(c.to_ron().contains("replicates: "), "{}", c.to_ron());
+            assert_eq!(IntegratorConfig::from_ron(&c.to_ron()).unwrap(), c);
+        }
     }
 
     #[test]

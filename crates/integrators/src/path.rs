@@ -40,7 +40,9 @@ settings! {
         /// its own scramble or stratification), so that the spread of the replicate means gives
         /// the variance of the pixel mean for any sampler (randomised quasi-Monte Carlo;
         /// `lightlab_samplers::replicate_sample`). Sample counts must be multiples of it. 1 (no
-        /// replicates) to 4096. Default 1.
+        /// replicates) to 4096. Default 1, which is left out when the settings are written (so
+        /// that settings without it keep their text, and experiments their run ids and seeds).
+        #[serde(skip_serializing_if = "crate::config::is_one")]
         replicates: u32 = 1,
     }
 }
