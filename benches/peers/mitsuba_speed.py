@@ -28,7 +28,8 @@ warm-up, which compiles the llvm kernel (or loads it from Dr.Jit's disk cache); 
 depend on spp or seed, so the timed render runs it from the in-memory cache (the JSON records each
 render's kernels and how many were not cache hits). Mitsuba's tracing of the integrator into a
 kernel on each render (a few ms) is inside. Its CPU seconds are RUSAGE_SELF deltas in its worker
-(all threads), its wall perf_counter. Lightlab: a 1-spp warm-up process per configuration, then
+(all threads), its wall perf_counter. Lightlab: a 1-spp warm-up process per configuration (one
+sample per replicate with `replicates`), then
 each trial a child process whose JSON gives the render's own CPU seconds (`render_cpu_seconds`,
 /proc/self/stat deltas around the render call, all threads, 10 ms ticks) and wall seconds; the
 process's remaining CPU time (start-up, scene parsing and BVH build, writing EXR/PNG/JSON) is
@@ -55,6 +56,7 @@ import glob
 import json
 import os
 import platform
+import re
 import resource
 import subprocess
 import sys
@@ -176,13 +178,22 @@ def rel_mse(x, ref, ref_var):
     return float(np.mean(relative - from_denominator))
 
 
+def warmup_spp(integrator):
+    """The fewest samples per pixel the Lightlab integrator takes: one per replicate
+    (`replicates: R` needs multiples of R), else 1."""
+    m = re.search(r"replicates:\s*(\d+)", integrator)
+    return int(m.group(1)) if m else 1
+
+
 def run_lightlab(args, scene, integrator, spp, threads, seed, output):
     cmd = [args.lightlab, "render", scene, "-i", integrator, "--spp", str(spp), "--seed", str(seed),
            "--resolution", f"{args.resolution}x{args.resolution}", "-o", output]
     if threads:
         cmd += ["--threads", str(threads)]
     c0, t0 = cpu_seconds(resource.RUSAGE_CHILDREN), time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    if done.returncode != 0:
+        sys.exit(f"lightlab failed ({' '.join(cmd)}):\n{done.stderr}")
     wall, cpu = time.perf_counter() - t0, cpu_seconds(resource.RUSAGE_CHILDREN) - c0
     with open(os.path.splitext(output)[0] + ".json") as f:
         stats = json.load(f)
@@ -303,13 +314,14 @@ def main():
                 for variant in args.variants for sampler in args.mitsuba_sampler}
             lightlab_rows = {}
             for integrator in integrators:
-                warm_wall, warm_cpu, warm = run_lightlab(args, ron, integrator, 1, threads, WARMUP_SEED,
-                                                         os.path.join(out, "warmup.exr"))
+                warm_spp = warmup_spp(integrator)
+                warm_wall, warm_cpu, warm = run_lightlab(args, ron, integrator, warm_spp, threads,
+                                                         WARMUP_SEED, os.path.join(out, "warmup.exr"))
                 lightlab_rows[integrator] = {
                     "scene": name, "renderer": f"Lightlab {integrator}", "threads": threads,
                     "spp": args.spp, "images": [], "wall": [], "cpu": [], "busy_wall": [],
                     "raw": {"integrator": warm["integrator"],
-                            "warmup": {"spp": 1, "process_wall_seconds": warm_wall, "cpu_seconds": warm_cpu,
+                            "warmup": {"spp": warm_spp, "process_wall_seconds": warm_wall, "cpu_seconds": warm_cpu,
                                        "render_wall_seconds": warm["stats"]["wall_seconds"]},
                             "trials": []}}
             # Trials round-robin over the renderers (trial k of each, then trial k + 1), so a drift of
@@ -382,7 +394,7 @@ def main():
         f"{started}, {os.cpu_count()} × {cpu_model()}, load average before {load_before[0]:.2f}. "
         f"Trials round-robin over the renderers. CPU s: all threads, user + sys, the render alone: "
         f"Mitsuba's without scene loading or its 1-spp warm-up (llvm kernel compilation), Lightlab's "
-        f"`render_cpu_seconds` (/proc/self/stat, 10 ms ticks) after a 1-spp warm-up process. relMSE ε = {REL_EPSILON} (± one standard error over the trials, less the reference's noise) against Lightlab "
+        f"`render_cpu_seconds` (/proc/self/stat, 10 ms ticks) after a warm-up process of 1 spp (one per replicate with `replicates`). relMSE ε = {REL_EPSILON} (± one standard error over the trials, less the reference's noise) against Lightlab "
         f"Bdpt() at {args.reference_spp} spp; efficiency = 1/(relMSE × CPU s); ratios ÷ Mitsuba "
         f"llvm_ad_rgb's, same scene and threads.",
         "",

@@ -468,33 +468,42 @@ impl<E> State<E> {
             });
         }
     }
-}
 
-impl<E> State<E> {
-    /// With R replicates, each pixel's variance of the mean is the spread of its R replicate means
-    /// (every replicate holding n/R samples): s²/R over them, R − 1 degrees of freedom (the
-    /// randomised quasi-Monte Carlo estimate; L'Ecuyer & Lemieux 2002, eq. 2). It replaces s²/n over
-    /// the samples (`m2` is kept 0, the estimate is `shared_var`); the image's standard error comes
-    /// from the replicates' image averages the same way.
+    /// With R replicates, each pixel's variance of the mean is the spread of its R replicate means:
+    /// s²/R over them, R − 1 degrees of freedom (the randomised quasi-Monte Carlo estimate;
+    /// L'Ecuyer & Lemieux 2002, eq. 2). It replaces s²/n over the samples (`m2` is kept 0, the
+    /// estimate is `shared_var`); the image's standard error comes from the replicates' image
+    /// averages the same way. Sample index i is replicate i mod R's, so after n samples replicate k
+    /// holds ⌊n/R⌋ of them, one more if k < n mod R (renders end with equal replicates; passes in
+    /// between need not).
     fn finish_replicates(&mut self, r: usize) {
-        let spread = |sums: &[[f64; 3]], per: f64| {
-            let means: Vec<[f64; 3]> = sums.iter().map(|s| s.map(|x| x / per)).collect();
+        let n = self.films[0].pixels[0].count as usize;
+        if n < r {
+            // An empty replicate (only where `Integrator::check_budget` was bypassed): no estimate.
+            for film in &mut self.films {
+                film.pixels.iter_mut().for_each(|p| p.m2 = [0.0; 3]);
+                film.image_se = None;
+            }
+            return;
+        }
+        let counts: Vec<f64> = (0..r)
+            .map(|k| (n / r + (k < n % r) as usize) as f64)
+            .collect();
+        let spread = |sums: &[[f64; 3]]| -> [f64; 3] {
             std::array::from_fn(|c| {
-                let mean = means.iter().map(|m| m[c]).sum::<f64>() / r as f64;
-                let ss = means.iter().map(|m| (m[c] - mean).powi(2)).sum::<f64>();
+                let means = sums.iter().zip(&counts).map(|(s, n)| s[c] / n);
+                let mean = means.clone().sum::<f64>() / r as f64;
+                let ss = means.map(|m| (m - mean).powi(2)).sum::<f64>();
                 ss / (r * (r - 1)) as f64
             })
         };
         let slots = self.films.len();
         for (slot, film) in self.films.iter_mut().enumerate() {
-            let mut per = 0.0;
             for (i, p) in film.pixels.iter_mut().enumerate() {
-                per = (p.count / r as u64) as f64;
                 p.m2 = [0.0; 3];
-                p.shared_var = spread(&self.replicas[(i * slots + slot) * r..][..r], per);
+                p.shared_var = spread(&self.replicas[(i * slots + slot) * r..][..r]);
             }
-            let image = &self.image_replicas[slot * r..][..r];
-            film.image_se = (per > 0.0).then(|| spread(image, per).map(f64::sqrt));
+            film.image_se = Some(spread(&self.image_replicas[slot * r..][..r]).map(f64::sqrt));
         }
     }
 }
@@ -827,7 +836,48 @@ fn splat_pass<E, F>(
 
 #[cfg(test)]
 mod tests {
-    use super::{MAX_BUFFERED, pixel_pass_samples, timed_pass};
+    use super::{
+        Budget, MAX_BUFFERED, PassSpec, Schedule, pixel_pass_samples, run_passes, timed_pass,
+    };
+    use crate::paths::{Layers, Router};
+    use lightlab_core::{NoProgress, Rgb};
+
+    /// The replicates' variance, exactly: a one-pixel estimator whose sample i is the value i, in
+    /// R = 4 replicates (sample i is replicate i mod 4's). After 8 samples the replicate means are
+    /// 2, 3, 4, 5 (variance of their mean 5/12) and the image's standard error is √(5/12); after 6
+    /// the replicates hold 2, 2, 1, 1 samples, with means 2, 3, 2, 3 (1/12: a render ends with equal
+    /// replicates, passes in between need not). With and without splatting (the two pass kinds).
+    #[test]
+    fn replicate_variance_is_the_spread_of_the_replicate_means() {
+        let router = Router::new(None, &Layers::Off, None).unwrap();
+        for splats in [false, true] {
+            for (n, want) in [(8u32, 5.0 / 12.0), (6, 1.0 / 12.0)] {
+                let spec = PassSpec {
+                    width: 1,
+                    height: 1,
+                    slots: 1,
+                    splats,
+                    groups: 0,
+                    independent: false,
+                    replicates: 4,
+                };
+                let mut schedule = Schedule::new(Budget::Samples(n), &NoProgress, 1);
+                let out = run_passes(
+                    &spec,
+                    &router,
+                    &mut schedule,
+                    &mut |_, _| true,
+                    |_, _, index, sink, _, _: &mut ()| sink.add_slot(0, Rgb::splat(index as f32)),
+                );
+                let film = &out.films[0];
+                let what = format!("splats {splats}, {n} samples");
+                assert_eq!(film.mean(0)[0], (n - 1) as f64 / 2.0, "{what}");
+                assert!((film.variance_of_mean(0)[0] - want).abs() < 1e-12, "{what}");
+                let se = film.image_se.expect("replicates give a standard error")[0];
+                assert!((se * se - want).abs() < 1e-12, "{what}");
+            }
+        }
+    }
 
     /// A pass's per-sample buffers stay within MAX_BUFFERED entries (about 100 MB) for any image,
     /// while one-tile images still render many samples per pass; never zero samples.
