@@ -505,6 +505,10 @@ fn settings_that_cannot_render_the_scene_are_refused() {
             "{bad}: {e}"
         );
     }
+    let e = IntegratorConfig::from_ron("Vcm(replicates: 2)")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("replicates need variant: Vc"), "{e}");
     for config in ["Path(sampler: Sobol, replicates: 8)", "Bdpt(replicates: 8)"] {
         let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
         let e = integrator.check_budget(&Budget::Samples(60)).unwrap_err();

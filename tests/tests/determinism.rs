@@ -43,6 +43,7 @@ fn replicates_same_bits_on_one_and_two_threads() {
     for config in [
         "Path(sampler: Sobol, replicates: 4)",
         "Bdpt(sampler: Stratified, replicates: 2)",
+        "Vcm(variant: Vc, sampler: Sobol, replicates: 2)",
     ] {
         let one = render_with(1, 4, config, 8);
         let two = render_with(2, 4, config, 8);

@@ -32,15 +32,22 @@ fn readme_fields(readme: &str, name: &str) -> BTreeSet<String> {
         .collect()
 }
 
-/// The field names of an integrator's settings, from its default serialised.
+/// The field names of an integrator's settings: those its parser expects, which its error for an
+/// unknown field lists (all of them, also those left out when default settings are written, such
+/// as `replicates`).
 fn struct_fields(name: &str) -> BTreeSet<String> {
-    let config = IntegratorConfig::from_ron(&format!("{name}()")).expect("default settings");
-    let value = serde_json::to_value(&config).expect("settings serialise");
-    value[name]
-        .as_object()
-        .unwrap_or_else(|| panic!("{name} serialises as {value}"))
-        .keys()
-        .cloned()
+    let e = IntegratorConfig::from_ron(&format!("{name}(no_such_field: 0)"))
+        .expect_err("an unknown field is an error")
+        .to_string();
+    let expected = e
+        .split("expected one of")
+        .nth(1)
+        .unwrap_or_else(|| panic!("{name}: {e}"));
+    expected
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(String::from)
         .collect()
 }
 

@@ -54,6 +54,10 @@ fn reported_pixel_variance_matches_the_variance_across_seeds() {
         ),
         ("Path(max_bounces: 3, sampler: Sobol, replicates: 4)", 32),
         ("Bdpt(max_bounces: 3, sampler: Sobol, replicates: 4)", 16),
+        (
+            "Vcm(max_bounces: 3, variant: Vc, sampler: Sobol, replicates: 4)",
+            16,
+        ),
     ] {
         let seeds = 2048;
         let outs: Vec<RenderOutput> = (0..seeds)
@@ -136,6 +140,7 @@ fn time_budget_renders_the_sample_budget_it_reaches() {
         "Bdpt(max_bounces: 3, sampler: Sobol)",
         "PhotonMap(max_bounces: 3, photons: 2000, caustic_photons: 100)",
         "Path(max_bounces: 3, sampler: Sobol, replicates: 8)",
+        "Vcm(max_bounces: 3, variant: Vc, sampler: Sobol, replicates: 4)",
     ] {
         let integrator = IntegratorConfig::from_ron(config).unwrap().build().unwrap();
         let timed = integrator.render(&sc, &Budget::Seconds(0.15), 3, &NoProgress);

@@ -151,16 +151,23 @@ impl<'a> Schedule<'a> {
     }
 
     /// The number of samples of the next pass, `done` samples having been rendered, at most
-    /// `preferred` (or one step); `None` when the budget is spent. Under a time budget the passes
-    /// halve the remaining time, at the rate measured so far, and the render stops when the
-    /// remaining time is less than half a one-step pass, so that it ends within half a step (a
-    /// sample, or one per replicate) of the budget. Every pass is a multiple of the step (a sample
-    /// budget is one already: `Integrator::check_budget`).
+    /// `preferred`; `None` when the budget is spent. Under a time budget the passes halve the
+    /// remaining time, at the rate measured so far, and the render stops when the remaining time
+    /// is less than half a one-step pass, so that it ends within half a step (a sample, or one per
+    /// replicate) of the budget. Renders end on a multiple of the step (a sample budget is one
+    /// already: `Integrator::check_budget`): passes are multiples of it, or, where the estimator
+    /// renders one sample index per pass (`preferred` below the step: progressive photon
+    /// mapping, VCM), a time budget continues to the next multiple before it stops.
     pub fn next_pass(&mut self, done: u32, preferred: u32) -> Option<u32> {
         let step = self.step;
-        let preferred = (preferred / step).max(1) * step;
+        let preferred = if preferred >= step {
+            preferred / step * step
+        } else {
+            preferred.max(1)
+        };
         let n = match self.budget {
             Budget::Samples(n) => (done < n).then(|| preferred.min(n - done))?,
+            Budget::Seconds(_) if !done.is_multiple_of(step) => preferred.min(step - done % step),
             Budget::Seconds(seconds) => {
                 let since_first = self.first_pass.map(|f| f.elapsed().as_secs_f64());
                 let steps = timed_pass(seconds, self.elapsed(), since_first, done / step)?;
@@ -841,6 +848,28 @@ mod tests {
     };
     use crate::paths::{Layers, Router};
     use lightlab_core::{NoProgress, Rgb};
+
+    /// With replicates, a time budget ends on a multiple of them: one pass of R samples, or, for an
+    /// estimator that renders one sample index per pass (VCM), R passes of one, though the clock ran
+    /// out after the first (a budget of a nanosecond); a sample budget's passes stay within it.
+    #[test]
+    fn renders_end_on_a_multiple_of_the_replicates() {
+        let passes = |budget: Budget, preferred: u32| {
+            let mut schedule = Schedule::new(budget, &NoProgress, 1);
+            schedule.step = 4;
+            let (mut done, mut sizes) = (0, Vec::new());
+            while let Some(n) = schedule.next_pass(done, preferred) {
+                sizes.push(n);
+                done += n;
+            }
+            sizes
+        };
+        assert_eq!(passes(Budget::Seconds(1e-9), 64), [4]);
+        assert_eq!(passes(Budget::Seconds(1e-9), 1), [1, 1, 1, 1]);
+        assert_eq!(passes(Budget::Samples(12), 1), [1; 12]);
+        assert_eq!(passes(Budget::Samples(12), 6), [4, 4, 4]);
+        assert_eq!(passes(Budget::Samples(12), 64), [12]);
+    }
 
     /// The replicates' variance, exactly: a one-pixel estimator whose sample i is the value i, in
     /// R = 4 replicates (sample i is replicate i mod 4's). After 8 samples the replicate means are

@@ -44,7 +44,7 @@ pub use mis::Heuristic;
 use crate::bdpt::{
     Reverse, camera_subpath, connection, joined_class, reverse_densities, used_vertices,
 };
-use crate::config::{ConfigError, Validate, invalid, settings};
+use crate::config::{ConfigError, Validate, check_replicates, invalid, settings};
 use crate::film::Film;
 use crate::passes::{
     PassSpec, RenderArgs, SampledRender, Schedule, render_sampled, run_progressive_passes,
@@ -58,7 +58,7 @@ use crate::walk::{Directions, PathVertex, Walk};
 use crate::{Budget, Integrator, RenderOutput, RenderStats};
 use glam::Vec2;
 use lightlab_core::{Progress, TransportMode};
-use lightlab_samplers::{Independent, Sampler, SamplerConfig};
+use lightlab_samplers::{Independent, Sampler, SamplerConfig, replicate_sample};
 use lightlab_scene::Scene;
 use mis::{Quantities, Techniques};
 use pass::LightPass;
@@ -73,6 +73,13 @@ settings! {
         /// Sampler of the camera subpaths (light subpaths and connections use independent
         /// samples). Default `Independent`.
         sampler: SamplerConfig = SamplerConfig::Independent,
+        /// With `variant: Vc`: split each pixel's passes into this many independent replicates
+        /// (the camera sampler and the passes' shutter instants randomised anew in each), so that
+        /// the spread of the replicate means gives the variance of the pixel mean for any sampler
+        /// (`lightlab_samplers::replicate_sample`). Sample counts must be multiples of it. 1 (no
+        /// replicates) to 4096. Default 1, which is left out when the settings are written.
+        #[serde(skip_serializing_if = "crate::config::is_one")]
+        replicates: u32 = 1,
         /// Techniques: `Vcm` (connections and merges), `Vc` (connections only, i.e. BDPT) or `Bpm`
         /// (merges only, bidirectional photon mapping). Default `Vcm`.
         variant: Variant = Variant::Vcm,
@@ -117,6 +124,15 @@ pub enum Variant {
 impl Validate for VcmConfig {
     fn validate(&self) -> Result<(), ConfigError> {
         self.check_common()?;
+        check_replicates(self.replicates)?;
+        if self.replicates > 1 && self.variant != Variant::Vc {
+            return invalid(format!(
+                "replicates need variant: Vc: merging shrinks its radius pass after pass, so \
+                 neither the passes of {:?} nor replicates of them are identically distributed \
+                 (measure its variance across trials)",
+                self.variant
+            ));
+        }
         self.radius.check("radius").map_err(ConfigError::Invalid)?;
         if !(self.alpha > 0.0 && self.alpha <= 1.0) {
             return invalid(format!(
@@ -246,6 +262,10 @@ impl Integrator for Vcm {
 
     fn sampler(&self) -> Option<&SamplerConfig> {
         Some(&self.config.sampler)
+    }
+
+    fn replicates(&self) -> u32 {
+        self.config.replicates
     }
 
     /// The images, and a pass's light subpaths: at least their first vertex, on the light, with
@@ -438,7 +458,9 @@ impl SampledRender for Vcm {
                 Technique::CameraConnection,
                 Technique::Merge,
             ],
-            if spec.independent && scene.motion_blur() {
+            if spec.replicates > 1 {
+                spec.pixel_variance(&cfg.sampler, "camera subpaths")
+            } else if spec.independent && scene.motion_blur() {
                 // Each pass's one instant is a stratum of the shutter (`shutter`).
                 crate::shutter::instants_variance()
             } else if spec.independent {
@@ -494,6 +516,7 @@ impl Vcm {
             slots: image.slots + 2 * self.layers.len(),
             splats: Vcm::techniques_of(cfg.variant).0,
             independent: cfg.variant == Variant::Vc && cfg.sampler.independent(),
+            replicates: cfg.replicates,
             ..image
         }
     }
@@ -507,7 +530,9 @@ impl Vcm {
         let max = self.config.max_bounces.unwrap_or(u32::MAX - 2);
         let radius = self.radius(scene, i);
         let techniques = self.techniques(radius, paths);
-        let time = pass_time(&scene.camera, seed, i as u64);
+        // In replicates, each its own scramble of the instants (so that replicates are i.i.d.).
+        let (time_seed, time_index) = replicate_sample(seed, i as u64, self.config.replicates);
+        let time = pass_time(&scene.camera, time_seed, time_index);
         let light = LightPass::trace(
             scene,
             &self.walk(TransportMode::Importance, max),
@@ -551,6 +576,7 @@ impl Vcm {
         let bounces = (cfg.min_bounces, max);
         let techniques = &pass.techniques;
         let pixel = y as usize * scene.camera.width as usize + x as usize;
+        let (seed, index) = replicate_sample(seed, index, cfg.replicates);
         sampler.start_pixel_sample(seed, pixel as u64, index);
         let mut connect = Independent::new();
         connect.start_pixel_sample(seed ^ CONNECT_STREAM, pixel as u64, index);
