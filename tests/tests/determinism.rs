@@ -30,10 +30,16 @@ fn photon_mapping_same_bits_on_one_and_two_threads() {
         "Radiosity(patches: 300, rays: 64, solver: Shooting, ambient: true, iterations: 1)",
         "Cone()",
     ] {
-        let one = render_with(1, 4, config, 3);
-        let two = render_with(2, 4, config, 3);
-        assert_eq!(one, two, "{config}");
+        same_bits_on_one_and_two_threads(config, 3);
     }
+}
+
+/// The image `config` renders at `spp` with seed 4 on one thread, after checking that two give the
+/// same bits.
+fn same_bits_on_one_and_two_threads(config: &str, spp: u32) -> lightlab_integrators::Film {
+    let one = render_with(1, 4, config, spp);
+    assert_eq!(one, render_with(2, 4, config, spp), "{config}");
+    one
 }
 
 /// Replicated samplers (randomised quasi-Monte Carlo): each pixel's replicate sums are merged in a
@@ -45,9 +51,7 @@ fn replicates_same_bits_on_one_and_two_threads() {
         "Bdpt(sampler: Stratified, replicates: 2)",
         "Vcm(variant: Vc, sampler: Sobol, replicates: 2)",
     ] {
-        let one = render_with(1, 4, config, 8);
-        let two = render_with(2, 4, config, 8);
-        assert_eq!(one, two, "{config}");
+        let one = same_bits_on_one_and_two_threads(config, 8);
         assert!(
             one.pixels.iter().any(|p| p.shared_var != [0.0; 3]),
             "{config}"

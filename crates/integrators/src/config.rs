@@ -397,7 +397,13 @@ mod tests {
             IntegratorConfig::from_ron("Bdpt()").unwrap().to_ron(),
             "Bdpt(max_bounces: None, min_bounces: 0, russian_roulette: 1, roulette_threshold: 0.5, sampler: Independent, mis: Balance, strategy_layers: false, outliers: None, paths: None, layers: Off)"
         );
-        for text in ["Path(sampler: Sobol, replicates: 8)", "Bdpt(replicates: 2)"] {
+        let vcm = IntegratorConfig::from_ron("Vcm()").unwrap().to_ron();
+        assert!(!vcm.contains("replicates"), "{vcm}");
+        for text in [
+            "Path(sampler: Sobol, replicates: 8)",
+            "Bdpt(replicates: 2)",
+            "Vcm(variant: Vc, replicates: 2)",
+        ] {
             let c = IntegratorConfig::from_ron(text).unwrap();
             assert!(c.to_ron().contains("replicates: "), "{}", c.to_ron());
             assert_eq!(IntegratorConfig::from_ron(&c.to_ron()).unwrap(), c);
