@@ -189,9 +189,13 @@ pub fn report(args: ReportArgs) -> Result<(), String> {
     if let Some(first) = missing.first() {
         return Err(format!(
             "the report needs every run's image and its reference; {} file(s) missing (first: {}): \
-             nothing was rewritten (rerun the experiment: finished runs are kept with their images)",
+             nothing was rewritten. Results kept without their EXR files (as committed) cannot be \
+             summarised again, and rerunning into the same directory skips their finished runs: \
+             rerun into another one (lightlab run {} --results OTHER), which renders the same runs \
+             with the same seeds",
             missing.len(),
-            first.display()
+            first.display(),
+            args.experiment.display()
         ));
     }
     // Runs the experiment plans that have no results (not run yet, or deleted): the settings

@@ -480,7 +480,8 @@ fn report_rebuilds_from_disk_and_refuses_without_images() {
     assert!(
         !refused.status.success()
             && stderr.contains("1 file(s) missing")
-            && stderr.contains("image.exr"),
+            && stderr.contains("image.exr")
+            && stderr.contains("lightlab run e.ron --results OTHER"),
         "{stderr}"
     );
     assert_eq!(
