@@ -36,11 +36,9 @@ pub(crate) struct RenderArgs<'a, 'b> {
     pub on_pass: &'b mut dyn FnMut(u32, &Film) -> bool,
 }
 
-/// An integrator whose render loop is monomorphised per sampler type.
+/// An integrator whose render loop is monomorphised per sampler type (the one `Integrator::sampler`
+/// names).
 pub(crate) trait SampledRender: Integrator {
-    /// The sampler the settings name.
-    fn sampler_config(&self) -> SamplerConfig;
-
     /// The render loop, with a freshly constructed sampler to clone per pixel sample.
     fn render_with<S: Sampler + Clone + Send + Sync + 'static>(
         &self,
@@ -76,7 +74,9 @@ pub(crate) fn render_sampled<I: SampledRender>(
         progress,
         on_pass,
     };
-    integrator.sampler_config().dispatch(
+    // The sampler the settings name (`Integrator::sampler`; none: independent samples).
+    let sampler = integrator.sampler().copied().unwrap_or_default();
+    sampler.dispatch(
         budget.samples_or(1) / integrator.replicates().max(1),
         With { integrator, args },
     )

@@ -277,10 +277,6 @@ impl Integrator for PathTracer {
 }
 
 impl SampledRender for PathTracer {
-    fn sampler_config(&self) -> SamplerConfig {
-        self.config.sampler
-    }
-
     fn render_with<S: Sampler + Clone + Send + Sync + 'static>(
         &self,
         prototype: S,

@@ -488,10 +488,6 @@ impl Radiosity {
 }
 
 impl SampledRender for Radiosity {
-    fn sampler_config(&self) -> SamplerConfig {
-        self.config.sampler
-    }
-
     fn render_with<S: Sampler + Clone + Send + Sync + 'static>(
         &self,
         prototype: S,

@@ -312,10 +312,6 @@ struct WorkItem {
 }
 
 impl SampledRender for Vcm {
-    fn sampler_config(&self) -> SamplerConfig {
-        self.config.sampler
-    }
-
     fn render_with<S: Sampler + Clone + Send + Sync + 'static>(
         &self,
         prototype: S,
