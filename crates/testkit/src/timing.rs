@@ -38,9 +38,10 @@ pub fn cpu_model() -> Option<String> {
 }
 
 /// The widest SIMD instruction set this build may use, fixed when it was compiled (`-C target-cpu`
-/// or `-C target-feature`; the default x86-64 target allows SSE2 only). Speed figures hold for one
-/// build as they do for one machine: on this project's machines an AVX-512 or AVX2 build of the
-/// same code renders 3–10 % faster, with identical images (BENCHMARKS.md).
+/// or `-C target-feature`: `.cargo/config.toml` builds for the building machine's CPU, the portable
+/// x86-64 target allows SSE2 only). Speed figures hold for one build as they do for one machine: on
+/// this project's machines an AVX-512 or AVX2 build renders 2–10 % faster than the portable one
+/// (README, "Speed and the build").
 pub fn build_simd() -> &'static str {
     if cfg!(target_feature = "avx512f") {
         "AVX-512"
