@@ -3,6 +3,7 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime};
 
 /// The temporary name used while writing `path` (same directory, so the rename is atomic).
 pub fn temp_path(path: &Path) -> PathBuf {
@@ -41,9 +42,90 @@ pub fn write_atomic_with(
     }
 }
 
+/// How old a temporary file must be before [`sweep_stale_temps`] takes it for the leftover of a
+/// killed process: writes take seconds, so an hour leaves any write in progress alone, also one of
+/// another process sharing the directory.
+pub const STALE_AFTER: Duration = Duration::from_secs(3600);
+
+/// Whether `name` is one of [`temp_path`]'s names: `.NAME.tmpPID`.
+fn is_temp_name(name: &str) -> bool {
+    name.starts_with('.')
+        && name.rsplit_once(".tmp").is_some_and(|(stem, pid)| {
+            stem.len() > 1 && !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit())
+        })
+}
+
+/// Removes the temporary files that writes interrupted by a kill or a crash left in `dir` and its
+/// subdirectories (an interrupted write removes its own; these are the ones nothing could), if they
+/// were last modified more than `min_age` ago. Returns how many it removed; a missing `dir` has
+/// none.
+pub fn sweep_stale_temps(dir: &Path, min_age: Duration) -> std::io::Result<usize> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
+        Err(e) => return Err(e),
+    };
+    let now = SystemTime::now();
+    let mut removed = 0;
+    for entry in entries {
+        let entry = entry?;
+        let kind = entry.file_type()?;
+        if kind.is_dir() {
+            removed += sweep_stale_temps(&entry.path(), min_age)?;
+        } else if kind.is_file() && is_temp_name(&entry.file_name().to_string_lossy()) {
+            let modified = entry.metadata()?.modified()?;
+            if now.duration_since(modified).is_ok_and(|age| age > min_age) {
+                std::fs::remove_file(entry.path())?;
+                removed += 1;
+            }
+        }
+    }
+    Ok(removed)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stale_temporary_files_are_swept_and_nothing_else() {
+        let dir = std::env::temp_dir().join(format!("lightlab-sweep-{}", std::process::id()));
+        let runs = dir.join("runs").join("a");
+        std::fs::create_dir_all(&runs).unwrap();
+        let old = SystemTime::now() - Duration::from_secs(2 * 3600);
+        let write = |path: &Path, modified: SystemTime| {
+            let f = std::fs::File::create(path).unwrap();
+            f.set_modified(modified).unwrap();
+        };
+        let stale = [
+            temp_path(&dir.join("runs.csv")),
+            temp_path(&runs.join("metrics.json")),
+        ];
+        for p in &stale {
+            write(p, old);
+        }
+        // A write in progress, a finished file, and names that only look alike are kept.
+        let kept = [
+            temp_path(&runs.join("image.exr")),
+            runs.join("metrics.json"),
+            dir.join(".tmp123"),
+            dir.join(".a.tmp"),
+            dir.join(".a.tmp12x"),
+            dir.join("a.tmp12"),
+        ];
+        write(&kept[0], SystemTime::now());
+        for p in &kept[1..] {
+            write(p, old);
+        }
+        assert_eq!(sweep_stale_temps(&dir, STALE_AFTER).unwrap(), 2);
+        assert!(stale.iter().all(|p| !p.exists()));
+        assert!(kept.iter().all(|p| p.exists()));
+        assert_eq!(
+            sweep_stale_temps(&dir.join("missing"), STALE_AFTER).unwrap(),
+            0
+        );
+        std::fs::remove_dir_all(dir).unwrap();
+    }
 
     #[test]
     fn failed_write_leaves_target_untouched() {

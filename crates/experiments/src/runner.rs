@@ -3,7 +3,7 @@
 //! metrics.json, each written atomically; metrics.json last, so its presence marks a finished run).
 //! An interrupted sweep therefore resumes where it stopped; shards run disjoint slices of it.
 
-use crate::atomic::write_atomic;
+use crate::atomic::{STALE_AFTER, sweep_stale_temps, write_atomic};
 use crate::desc::{BudgetDesc, ExperimentDesc, ReferenceDesc, load_experiment};
 use crate::image_io::{RgbLayer, output_layers, write_exr};
 use crate::metrics::{Errors, errors};
@@ -342,6 +342,18 @@ pub fn run_experiment(
             .map_err(|e| format!("{}: {e}", out_dir.display()))?;
     }
     write_source(path, &out_dir)?;
+    for dir in [&out_dir, &cache_dir] {
+        let swept =
+            sweep_stale_temps(dir, STALE_AFTER).map_err(|e| format!("{}: {e}", dir.display()))?;
+        if swept > 0 {
+            log(&format!(
+                "removed {swept} temporary file{} that interrupted writes left in {} (older than \
+                 an hour)",
+                if swept == 1 { "" } else { "s" },
+                dir.display()
+            ));
+        }
+    }
     // A scene, loaded once, with its reference (found in the cache, rendered, or read).
     let prepare =
         |run: &RunSpec, warnings: &mut Vec<String>| -> Result<(Scene, Reference), String> {

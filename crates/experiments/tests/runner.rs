@@ -8,6 +8,7 @@ use lightlab_experiments::report::{finished_runs, plot_from_csv, write_report};
 use lightlab_experiments::runner::{RunOptions, RunRecord, merge, run_experiment};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime};
 
 const SCENE: &str = r#"Scene(
     camera: Camera(eye: (0, 0, 0), target: (0, 0, -1), fov: 60, resolution: (8, 6)),
@@ -95,20 +96,35 @@ fn interrupted_sweep_resumes_to_the_same_results() {
     assert_eq!(std::fs::read_dir(out.join("images")).unwrap().count(), 6);
 
     // Interrupt: five runs lose their metrics.json (a kill before the last write), one of them
-    // also its image, and a temporary file is left behind.
+    // also its image, and temporary files are left behind: one by a kill two hours ago, one
+    // that may be another process's write in progress.
     let runs: Vec<PathBuf> = std::fs::read_dir(out.join("runs"))
         .unwrap()
         .map(|e| e.unwrap().path())
         .collect();
+    let (stale, recent) = (
+        runs[0].join(".metrics.json.tmp1"),
+        runs[1].join(".image.exr.tmp2"),
+    );
     for (k, r) in runs.iter().take(5).enumerate() {
         std::fs::remove_file(r.join("metrics.json")).unwrap();
         if k == 0 {
             std::fs::remove_file(r.join("image.exr")).unwrap();
-            std::fs::write(r.join(".metrics.json.tmp1"), "{ half").unwrap();
+            let f = std::fs::File::create(&stale).unwrap();
+            f.set_modified(SystemTime::now() - Duration::from_secs(7200))
+                .unwrap();
+            std::fs::write(&recent, "half").unwrap();
         }
     }
     let (ran, skipped, log) = run(&exp, &results, None);
     assert_eq!((ran, skipped), (5, 7));
+    assert!(!stale.exists() && recent.exists());
+    assert!(
+        log.iter()
+            .any(|l| l.starts_with("removed 1 temporary file that")),
+        "{log:?}"
+    );
+    std::fs::remove_file(&recent).unwrap();
     assert!(
         log.iter().any(|l| l.contains("cached:")),
         "the reference must come from the cache: {log:?}"
