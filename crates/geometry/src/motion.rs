@@ -7,6 +7,7 @@
 //! t, and clamped to the first or last key outside them.
 
 use crate::hit::Hit;
+use crate::rotation::slerp;
 use glam::{Mat3, Quat};
 use lightlab_core::{Ray, Vec3, gamma};
 
@@ -69,7 +70,7 @@ impl Motion {
                 let s = (t - a.time) / (b.time - a.time);
                 (
                     a.translate.lerp(b.translate, s),
-                    a.rotate.slerp(b.rotate, s).normalize(),
+                    slerp(a.rotate, b.rotate, s),
                 )
             }
         }

@@ -2,6 +2,7 @@
 //! et al., "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7), the surface at a hit with a
 //! conservative error bound, and area / solid-angle (visible cone) sampling (pbrt-v4 §6.2.4).
 
+use crate::rotation::{rotate, unrotate};
 use crate::sampling::{SurfaceSample, area_sample_to_solid_angle, pdf_area_to_solid_angle};
 use glam::{DVec3, Quat};
 use lightlab_core::{Frame, PI, Vec2, Vec3, gamma};
@@ -110,7 +111,7 @@ impl Sphere {
         let n = (p64 / p64.length()).as_vec3();
         // Parameterisation in the sphere's own frame (Mitsuba 3's): u = φ / 2π, v = θ / π, so
         // v = 0 at the +z pole, and ∂p/∂u = 2π·(−y, x, 0) (pbrt-v4 §6.2.4 with φ_max = 2π).
-        let mut q = self.orientation.inverse() * p_obj;
+        let mut q = unrotate(self.orientation, p_obj);
         if q.x == 0.0 && q.y == 0.0 {
             q.x = 1e-5 * self.radius;
         }
@@ -123,7 +124,10 @@ impl Sphere {
             p,
             p_error,
             n,
-            dpdu: self.orientation * Vec3::new(-2.0 * PI * q.y, 2.0 * PI * q.x, 0.0),
+            dpdu: rotate(
+                self.orientation,
+                Vec3::new(-2.0 * PI * q.y, 2.0 * PI * q.x, 0.0),
+            ),
             uv: Vec2::new(phi / (2.0 * PI), theta / PI),
         };
         Some((t as f32, surface))

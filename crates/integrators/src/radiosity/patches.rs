@@ -6,7 +6,9 @@
 
 use glam::Quat;
 use lightlab_core::{PI, Vec2, Vec3};
-use lightlab_geometry::{Geometry, Hit, Sphere, TriangleMesh, geometric_normal, point_with_error};
+use lightlab_geometry::{
+    Geometry, Hit, Sphere, TriangleMesh, geometric_normal, point_with_error, rotate, unrotate,
+};
 use lightlab_samplers::warp::square_to_uniform_triangle;
 use lightlab_scene::Scene;
 
@@ -61,8 +63,11 @@ impl Patch {
                 let cz = z[0] + u.x * (z[1] - z[0]);
                 let f = phi[0] + u.y * (phi[1] - phi[0]);
                 let sz = (1.0 - cz * cz).max(0.0).sqrt();
-                let n =
-                    (sphere.orientation * Vec3::new(sz * f.cos(), sz * f.sin(), cz)).normalize();
+                let n = rotate(
+                    sphere.orientation,
+                    Vec3::new(sz * f.cos(), sz * f.sin(), cz),
+                )
+                .normalize();
                 let (p, p_error) = sphere.world_point(sphere.radius * n);
                 PatchPoint { p, p_error, n }
             }
@@ -125,7 +130,7 @@ impl Patches {
                 orientation,
                 center,
             } => {
-                let d = (orientation.inverse() * (hit.p - center)).normalize_or(Vec3::Z);
+                let d = unrotate(orientation, hit.p - center).normalize_or(Vec3::Z);
                 let band = (((d.z + 1.0) * 0.5 * bands as f32) as u32).min(bands - 1);
                 let phi = d.y.atan2(d.x).rem_euclid(2.0 * PI);
                 let sector = ((phi / (2.0 * PI) * sectors as f32) as u32).min(sectors - 1);
