@@ -2,9 +2,8 @@
 //! et al., "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7), the surface at a hit with a
 //! conservative error bound, and area / solid-angle (visible cone) sampling (pbrt-v4 §6.2.4).
 
-use crate::rotation::{rotate, unrotate};
 use crate::sampling::{SurfaceSample, area_sample_to_solid_angle, pdf_area_to_solid_angle};
-use glam::{DVec3, Quat};
+use glam::{DVec3, Mat3, Quat};
 use lightlab_core::{Frame, PI, Vec2, Vec3, gamma};
 use lightlab_samplers::warp;
 
@@ -111,7 +110,10 @@ impl Sphere {
         let n = (p64 / p64.length()).as_vec3();
         // Parameterisation in the sphere's own frame (Mitsuba 3's): u = φ / 2π, v = θ / π, so
         // v = 0 at the +z pole, and ∂p/∂u = 2π·(−y, x, 0) (pbrt-v4 §6.2.4 with φ_max = 2π).
-        let mut q = unrotate(self.orientation, p_obj);
+        // The frame's matrix, built once for both rotations (as `crate::rotate` and `unrotate`
+        // apply it: no fused multiply-adds, the same bits in every build).
+        let frame = Mat3::from_quat(self.orientation);
+        let mut q = frame.transpose() * p_obj;
         if q.x == 0.0 && q.y == 0.0 {
             q.x = 1e-5 * self.radius;
         }
@@ -124,10 +126,7 @@ impl Sphere {
             p,
             p_error,
             n,
-            dpdu: rotate(
-                self.orientation,
-                Vec3::new(-2.0 * PI * q.y, 2.0 * PI * q.x, 0.0),
-            ),
+            dpdu: frame * Vec3::new(-2.0 * PI * q.y, 2.0 * PI * q.x, 0.0),
             uv: Vec2::new(phi / (2.0 * PI), theta / PI),
         };
         Some((t as f32, surface))
