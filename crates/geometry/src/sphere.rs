@@ -105,9 +105,10 @@ impl Sphere {
         let (t, oi, d) = self.intersect_f64(o, d, t_max)?;
         let r = self.radius as f64;
         let p64 = oi + t * d;
-        let p_obj = (p64 * (r / p64.length())).as_vec3();
+        let length = p64.length();
+        let p_obj = (p64 * (r / length)).as_vec3();
         let (p, p_error) = self.world_point(p_obj);
-        let n = (p64 / p64.length()).as_vec3();
+        let n = (p64 / length).as_vec3();
         // Parameterisation in the sphere's own frame (Mitsuba 3's): u = φ / 2π, v = θ / π, so
         // v = 0 at the +z pole, and ∂p/∂u = 2π·(−y, x, 0) (pbrt-v4 §6.2.4 with φ_max = 2π).
         // The frame's matrix, built once for both rotations (as `crate::rotate` and `unrotate`
