@@ -24,12 +24,15 @@ const TEMPLATE: &str = include_str!("html/report.html");
 const HELP: [(&str, &str); 14] = [
     (
         "MSE",
-        "mean over pixels and channels of (x − r)² − v_r: the reference's own noise v_r is not charged to the method; mean over trials ± standard error",
+        "mean over pixels and channels of (x − r)² − v_r: the reference's own noise v_r is not charged to the method; mean over trials ± standard error over the trials, then (ref. ± …) the standard error the reference's noise adds, common to every setting measured against it (it moves ratios of errors; it assumes independent reference pixels)",
     ),
-    ("relMSE", "mean of ((x − r)² − v_r) / (r² + 0.01)"),
+    (
+        "relMSE",
+        "mean of ((x − r)² − v_r) / (r² + 0.01), less the first-order bias of dividing by the reference's noisy value; ± as for MSE",
+    ),
     (
         "bias²",
-        "(x̄ − r)² − variance/T − v_r averaged over pixels, from the T trials' images (can be slightly negative from noise); ± a leave-one-out jackknife standard error (T ≥ 3 trials; conservative)",
+        "(x̄ − r)² − variance/T − v_r averaged over pixels, from the T trials' images (can be slightly negative from noise); ± a leave-one-out jackknife standard error (T ≥ 3 trials; conservative), then the reference's standard error (the MSE's)",
     ),
     (
         "variance",

@@ -116,12 +116,7 @@ pub fn errors(x: &[[f32; 3]], reference: &Image) -> Option<Errors> {
             let (p, r, v) = (p[c] as f64, r[c] as f64, v[c] as f64);
             let d2 = (p - r) * (p - r);
             e.mse += d2 - v;
-            let denominator = r * r + REL_EPSILON;
-            let relative = (d2 - v) / denominator;
-            // The noisy denominator's first-order bias (module docs).
-            let from_denominator = (relative * (3.0 * r * r - REL_EPSILON) + 4.0 * r * (p - r)) * v
-                / (denominator * denominator);
-            e.rel_mse += relative - from_denominator;
+            e.rel_mse += relative_error(d2, p - r, r, v);
             e.mae += (p - r).abs();
             e.reference_variance += v;
         }
@@ -133,6 +128,19 @@ pub fn errors(x: &[[f32; 3]], reference: &Image) -> Option<Errors> {
         mae: e.mae / n,
         reference_variance: e.reference_variance / n,
     })
+}
+
+/// relMSE's term of one pixel value x against the reference value `r` of variance `v`, from
+/// (x − r)² (`squared`) and x − r (`difference`): ((x − r)² − v)/(r² + ε) less the noisy
+/// denominator's first-order bias (module docs). Linear in the two, so their means over trials
+/// give the mean over trials.
+#[inline]
+fn relative_error(squared: f64, difference: f64, r: f64, v: f64) -> f64 {
+    let denominator = r * r + REL_EPSILON;
+    let relative = (squared - v) / denominator;
+    let from_denominator = (relative * (3.0 * r * r - REL_EPSILON) + 4.0 * r * difference) * v
+        / (denominator * denominator);
+    relative - from_denominator
 }
 
 /// Bias and variance of a method at one setting, from T ≥ 2 independent trials (images `trials`).
@@ -196,6 +204,67 @@ pub fn bias_variance_se(trials: &[&[[f32; 3]]], reference: &Image) -> Option<Bia
     Some(BiasVariance {
         bias2: se(|b| b.bias2),
         variance: se(|b| b.variance),
+    })
+}
+
+/// The standard error that the reference's own noise gives the errors of one setting (its T
+/// trials), on top of the trials' spread.
+///
+/// Every run is measured against the same reference r̂ = r + δ, so the part of its error that δ
+/// causes is common to all trials (and settings), and the trials' spread never sees it. Over the
+/// reference's noise (independent pixels, δ of variance v_r), the mean MSE of trials with mean x̄
+/// moves by (1/M) Σ [−2(x̄ − r)δ + δ² − v_r], of variance (1/M²) Σ [4(x̄ − r)² v_r + 2 v_r²] for
+/// Gaussian δ; (x̄ − r̂)² − v_r estimates (x̄ − r)² without bias, so the estimate is
+/// (1/M²) Σ [4(x̄ − r̂)² v_r − 2 v_r²]. In general, for a per-pixel error ḡ(r̂) (the mean over
+/// trials), a second-order expansion gives Var ≈ ḡ′² v_r + ḡ″² v_r²/2, and ḡ′(r̂)² overestimates
+/// ḡ′(r)² by ḡ″² v_r, so each pixel adds ḡ′(r̂)² v_r − ḡ″² v_r²/2 (the MSE's case: ḡ′ = −2(x̄ − r̂),
+/// ḡ″ = 2). relMSE's ḡ, ((x − r̂)² − v_r)/(r̂² + ε) less its first-order correction, is
+/// differentiated numerically (its correction scales ḡ′ by about 1 + v_r/ε at black pixels, so it is
+/// kept). bias² moves by the MSE's amount (the variance
+/// does not involve r̂). The offset is common to every setting measured against the reference, so
+/// it cancels only where two settings have the same error per pixel: it moves ratios of errors,
+/// which is why it is reported. `None` when the reference has no variance estimate. Pixels of a
+/// reference that splats (light tracing, BDPT's light paths) are weakly correlated, which this
+/// leaves out.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceSe {
+    pub mse: f64,
+    pub rel_mse: f64,
+}
+
+pub fn reference_se(trials: &[&[[f32; 3]]], reference: &Image) -> Option<ReferenceSe> {
+    let variance = reference.variance.as_ref()?;
+    let n = reference.mean.len();
+    if trials.is_empty() || n == 0 || trials.iter().any(|x| x.len() != n) {
+        return None;
+    }
+    let t = trials.len() as f64;
+    let (mut mse, mut rel) = (0.0, 0.0);
+    for (i, (r, v)) in reference.mean.iter().zip(variance).enumerate() {
+        for c in 0..3 {
+            let (r, v) = (r[c] as f64, v[c] as f64);
+            let mean = trials.iter().map(|x| x[i][c] as f64).sum::<f64>() / t;
+            let spread = trials
+                .iter()
+                .map(|x| (x[i][c] as f64 - mean).powi(2))
+                .sum::<f64>()
+                / t;
+            let d = mean - r;
+            mse += 4.0 * d * d * v - 2.0 * v * v;
+            // relMSE's ḡ(ρ) for a reference value ρ, differentiated numerically at r̂ (central
+            // differences; a step of 1 % of the reference's standard deviation, so that the
+            // second-order term, of order v_r², keeps its size; it vanishes with v_r).
+            let g = |rho: f64| relative_error(spread + (mean - rho).powi(2), mean - rho, rho, v);
+            let h = (0.01 * v.sqrt()).max(1e-6 * (r.abs() + 1.0));
+            let g1 = (g(r + h) - g(r - h)) / (2.0 * h);
+            let g2 = (g(r + h) - 2.0 * g(r) + g(r - h)) / (h * h);
+            rel += g1 * g1 * v - g2 * g2 * v * v / 2.0;
+        }
+    }
+    let m = 3.0 * n as f64;
+    Some(ReferenceSe {
+        mse: (mse.max(0.0)).sqrt() / m,
+        rel_mse: (rel.max(0.0)).sqrt() / m,
     })
 }
 
@@ -562,6 +631,75 @@ mod tests {
             (10, vec![1e5, 2e5]),
             "{f:?}"
         );
+    }
+
+    /// The reference's share of a setting's error spread, simulated: T = 4 fixed trials of a
+    /// biased method (x = r + 0.1 + N(0, 0.01²)) over 1 500 pixels, a third each black, grey (0.2)
+    /// and white, measured against 3 000 independent references r̂ = r + N(0, v_r). The spread of the
+    /// setting's mean MSE and relMSE over the references must match `reference_se`'s estimate
+    /// (averaged over them) within 6 %: the spread of 3 000 values has a relative standard error of
+    /// 1.3 %, so a false failure needs 4.6σ (≈ 10⁻⁵ for another seed). Measured: 0.988 (MSE) and
+    /// 0.996 (relMSE); leaving out relMSE's first-order correction made it 0.92. With one noisy reference the
+    /// trials' own standard error would be 4× too small here.
+    #[test]
+    fn reference_se_matches_the_spread_over_references() {
+        let (t, n, v, k) = (4, 1500, 4e-4f64, 3000);
+        let truth: Vec<[f32; 3]> = (0..n).map(|i| [[0.0, 0.2, 1.0][i % 3] as f32; 3]).collect();
+        let mut gauss = gaussian(99);
+        let trials: Vec<Vec<[f32; 3]>> = (0..t)
+            .map(|_| {
+                truth
+                    .iter()
+                    .map(|p| p.map(|r| (r as f64 + 0.1 + 0.01 * gauss()) as f32))
+                    .collect()
+            })
+            .collect();
+        let slices: Vec<&[[f32; 3]]> = trials.iter().map(|x| x.as_slice()).collect();
+        let (mut mse, mut rel, mut estimate) = (Vec::new(), Vec::new(), ReferenceSe::default());
+        let mut trial_spread = 0.0;
+        for _ in 0..k {
+            let reference = Image {
+                width: n as u32,
+                height: 1,
+                mean: truth
+                    .iter()
+                    .map(|p| p.map(|r| (r as f64 + v.sqrt() * gauss()) as f32))
+                    .collect(),
+                variance: Some(vec![[v as f32; 3]; n]),
+            };
+            let e: Vec<Errors> = slices
+                .iter()
+                .map(|x| errors(x, &reference).unwrap())
+                .collect();
+            mse.push(e.iter().map(|e| e.mse).sum::<f64>() / t as f64);
+            rel.push(e.iter().map(|e| e.rel_mse).sum::<f64>() / t as f64);
+            let m = mse.last().unwrap();
+            trial_spread +=
+                (e.iter().map(|e| (e.mse - m).powi(2)).sum::<f64>() / ((t - 1) * t) as f64).sqrt()
+                    / k as f64;
+            let r = reference_se(&slices, &reference).unwrap();
+            estimate.mse += r.mse / k as f64;
+            estimate.rel_mse += r.rel_mse / k as f64;
+        }
+        let sd = |x: &[f64]| {
+            let m = x.iter().sum::<f64>() / x.len() as f64;
+            (x.iter().map(|y| (y - m).powi(2)).sum::<f64>() / (x.len() - 1) as f64).sqrt()
+        };
+        for (what, spread, estimate) in [
+            ("MSE", sd(&mse), estimate.mse),
+            ("relMSE", sd(&rel), estimate.rel_mse),
+        ] {
+            assert!(
+                (estimate / spread - 1.0).abs() < 0.06,
+                "{what}: estimated {estimate}, spread over references {spread}"
+            );
+        }
+        assert!(sd(&mse) > 3.0 * trial_spread, "{} {trial_spread}", sd(&mse));
+        let none = Image {
+            variance: None,
+            ..image(truth.clone(), 0.0)
+        };
+        assert!(reference_se(&slices, &none).is_none());
     }
 
     /// The efficiency is the ratio of means with a delta-method error, not the mean of ratios.

@@ -8,7 +8,8 @@ use crate::atomic::write_atomic;
 use crate::html;
 use crate::image_io::{RgbLayer, read_exr, write_exr};
 use crate::metrics::{
-    Efficiency, Fit, REL_EPSILON, bias_variance, bias_variance_se, efficiency, fit_power_law,
+    Efficiency, Fit, REL_EPSILON, ReferenceSe, bias_variance, bias_variance_se, efficiency,
+    fit_power_law, reference_se,
 };
 use crate::perceptual;
 use crate::plot::{LinePlot, Series, render_svg};
@@ -188,6 +189,10 @@ pub(crate) struct SettingSummary {
     mse: (f64, f64),
     rel_mse: (f64, f64),
     mae: (f64, f64),
+    /// The standard error the reference's own noise adds to `mse`, `rel_mse` and `bias2`, common
+    /// to every setting measured against it (`metrics::reference_se`); `None` without a reference
+    /// variance.
+    reference_se: Option<ReferenceSe>,
     /// 1 / (mean MSE × mean time), with its delta-method standard error.
     efficiency: Efficiency,
     /// 1 / (mean relMSE × mean time).
@@ -213,6 +218,8 @@ pub(crate) struct ClassSummary {
     class: String,
     mse: (f64, f64),
     rel_mse: (f64, f64),
+    /// As `SettingSummary::reference_se`, against the reference's layer of the class.
+    reference_se: Option<ReferenceSe>,
 }
 
 /// The mean over trials of `images` and the variance of that mean (sample variance / T).
@@ -366,6 +373,29 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
         let slices: Vec<&[[f32; 3]]> = images.iter().map(|i| i.as_slice()).collect();
         let bv = bias_variance(&slices, reference);
         let bv_se = bias_variance_se(&slices, reference);
+        let ref_se = reference_se(&slices, reference);
+        // Each path class's reference layer and trial layers, for its reference standard error.
+        let class_ref_se = |class: &String| -> io::Result<Option<ReferenceSe>> {
+            let layers: Option<Vec<&[[f32; 3]]>> = trial_layers
+                .iter()
+                .map(|t| {
+                    t.iter()
+                        .find(|l| &l.name == class)
+                        .map(|l| l.pixels.as_slice())
+                })
+                .collect();
+            let Some(layers) = layers else {
+                return Ok(None);
+            };
+            let image = crate::reference::load_foreign(&file, Some(class), None)
+                .map_err(io::Error::other)?;
+            Ok(reference_se(&layers, &image))
+        };
+        let class_se: Vec<Option<ReferenceSe>> = rs[0]
+            .class_errors
+            .iter()
+            .map(|(class, _)| class_ref_se(class))
+            .collect::<io::Result<_>>()?;
         let (mut flip, mut mean) = (None, None);
         let image = match mean_image(&slices) {
             Some(layers) => {
@@ -397,6 +427,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             mse: get(|r| r.errors.mse),
             rel_mse: get(|r| r.errors.rel_mse),
             mae: get(|r| r.errors.mae),
+            reference_se: ref_se,
             efficiency: efficiency(
                 &rs.iter().map(|r| r.errors.mse).collect::<Vec<_>>(),
                 &rs.iter().map(|r| r.wall_seconds).collect::<Vec<_>>(),
@@ -429,6 +460,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
                         class: class.clone(),
                         mse: of(|e| e.mse),
                         rel_mse: of(|e| e.rel_mse),
+                        reference_se: class_se[k],
                     }
                 })
                 .collect(),
@@ -438,7 +470,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
     let summary = serde_json::json!({
         "runs": records.len(),
         "rel_mse_epsilon": REL_EPSILON,
-        "metrics": "mse and rel_mse have the reference's own variance subtracted where it is an estimate (see warnings); values are (mean over trials, standard error); bias2_se and variance_se are leave-one-out jackknife standard errors (T ≥ 3 trials; conservative); efficiency = 1/(mean error × mean seconds) with a delta-method standard error, error_significant false where the mean error is not significantly above zero; convergence fits weight each point by its pooled log-space standard error and list the points left out (MSE ≤ 0)",
+        "metrics": "mse and rel_mse have the reference's own variance subtracted where it is an estimate (see warnings); values are (mean over trials, standard error over the trials); reference_se is the standard error the reference's own noise adds to mse, rel_mse and bias2, common to every setting against that reference (independent reference pixels assumed; null without a reference variance); bias2_se and variance_se are leave-one-out jackknife standard errors (T ≥ 3 trials; conservative); efficiency = 1/(mean error × mean seconds) with a delta-method standard error, error_significant false where the mean error is not significantly above zero; convergence fits weight each point by its pooled log-space standard error and list the points left out (MSE ≤ 0)",
         "settings": settings,
         "convergence": plots.fits,
         "plots": plots.files,

@@ -287,6 +287,21 @@ fn classes_get_their_own_metrics_and_plots() {
     assert!(csv.contains("mse[LDE]") && csv.contains("mse[rest]"));
     let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
     assert!(summary.contains("\"class\": \"LDE\""));
+    // The reference (independent samples) has a variance: every setting and class gets the
+    // standard error its noise adds.
+    let summary: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    for s in summary["settings"].as_array().unwrap() {
+        let positive = |v: &serde_json::Value| v["mse"].as_f64().unwrap() > 0.0;
+        assert!(positive(&s["reference_se"]), "{}", s["reference_se"]);
+        for c in s["classes"].as_array().unwrap() {
+            assert!(
+                positive(&c["reference_se"]),
+                "{}: {}",
+                c["class"],
+                c["reference_se"]
+            );
+        }
+    }
     for plot in ["furnace-mse-vs-spp-LDE.svg", "furnace-mse-vs-time-rest.svg"] {
         assert!(out.join(plot).is_file(), "{plot} missing");
     }
@@ -316,6 +331,12 @@ fn correlated_reference_variance_is_not_subtracted() {
     );
     for r in finished_runs(&o.out_dir).unwrap() {
         assert_eq!(r.errors.reference_variance, 0.0, "{}", r.id);
+    }
+    // Nor a reference standard error.
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(o.out_dir.join("summary.json")).unwrap()).unwrap();
+    for s in summary["settings"].as_array().unwrap() {
+        assert!(s["reference_se"].is_null(), "{}", s["reference_se"]);
     }
     // The summary's bias² and variance are measured against the reference as the runs were:
     // bias² + variance is the mean MSE (the report once reloaded the cached reference with its
