@@ -279,8 +279,9 @@ pub struct ConvergenceArgs {
     /// Largest sample count (a power of two is reached exactly).
     #[arg(long, default_value_t = 4096, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..=1 << 20))]
     max_spp: u32,
-    /// Independent seeds per sample count (≥ 2).
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(2..))]
+    /// Independent seeds per sample count: 2 to 16 777 216 (each sample count keeps every seed's
+    /// error in memory, 8 bytes each).
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(2..=1 << 24))]
     seeds: u32,
     /// Smallest sample count in the slope fit (rates are asymptotic).
     #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]

@@ -214,9 +214,32 @@ fn bad_input_is_an_error_not_a_panic() {
             "choose a strategy with s ≥ 1",
         ),
     ];
+    let mut cases = cases;
+    // A few hundred bytes of EXR header claiming 100 000² pixels: the allocation aborted.
+    let huge = dir.join("huge-header.exr");
+    std::fs::write(
+        &huge,
+        lightlab_testkit::files::exr_header_only(100_000, 100_000),
+    )
+    .unwrap();
+    let huge = huge.display().to_string();
+    cases.push((
+        vec!["compare".into(), huge.clone(), huge],
+        "header declares 100000 × 100000",
+    ));
+    // Four billion seeds' errors (32 GiB) aborted the process.
+    cases.push((
+        vec![
+            "convergence".into(),
+            "--seeds".into(),
+            "4294967295".into(),
+            "--results".into(),
+            dir.join("conv").display().to_string(),
+        ],
+        "2..=16777216",
+    ));
     // Refused before allocating: 16384² pixels × 1024 light subpaths each is tens of terabytes
     // of light vertices (the kernel's out-of-memory kill ended it otherwise).
-    let mut cases = cases;
     if cfg!(target_os = "linux") {
         cases.push((
             vec![

@@ -131,6 +131,7 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<RgbLayer>), ImageError> {
         path: path.display().to_string(),
         message,
     };
+    lightlab_scene::check_exr_size(path).map_err(err)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

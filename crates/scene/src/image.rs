@@ -115,10 +115,45 @@ pub(crate) fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
+/// `Err` when the OpenEXR file at `path` would take more than [`MAX_DECODED_BYTES`] decoded, as its
+/// header declares (each part's largest level, every channel as f32): a corrupt or hostile header
+/// of a few hundred bytes can claim 100 000² pixels, and the exr crate allocates them before it
+/// reads a texel. The error says why, without the path. An unreadable header is left to the reader,
+/// whose message is more specific.
+pub fn check_exr_size(path: &Path) -> Result<(), String> {
+    let Ok(meta) = exr::meta::MetaData::read_from_file(path, false) else {
+        return Ok(());
+    };
+    let bytes: f64 = meta
+        .headers
+        .iter()
+        .map(|h| h.layer_size.area() as f64 * h.channels.list.len() as f64 * 4.0)
+        .sum();
+    if bytes > MAX_DECODED_BYTES as f64 {
+        let h = &meta.headers[0];
+        return Err(format!(
+            "cannot read {}: its header declares {} × {} pixels{} in {} channel(s), which take              {:.0} GiB decoded, more than the {} GiB allowed (is the file corrupt?)",
+            path.display(),
+            h.layer_size.width(),
+            h.layer_size.height(),
+            if meta.headers.len() > 1 {
+                format!(" (and {} more parts)", meta.headers.len() - 1)
+            } else {
+                String::new()
+            },
+            h.channels.list.len(),
+            bytes / (1u64 << 30) as f64,
+            MAX_DECODED_BYTES >> 30
+        ));
+    }
+    Ok(())
+}
+
 /// The first RGB(A) layer of an OpenEXR file, or else its first luminance (`Y`) layer as grey:
 /// width, height and linear texels row by row from the top.
 fn read_rgb_exr(path: &Path) -> Result<RgbImage, String> {
     use exr::prelude::*;
+    check_exr_size(path).map_err(|why| format!("cannot read {}: {why}", path.display()))?;
     fn texels(resolution: Vec2<usize>) -> (usize, Vec<Rgb>) {
         let (w, h) = (resolution.width(), resolution.height());
         (w, vec![Rgb::BLACK; w * h])
@@ -254,6 +289,29 @@ mod tests {
         std::fs::write(&empty, b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n").unwrap();
         let err = read_rgb_image(&empty, false).unwrap_err();
         assert!(err.contains("empty.hdr"), "{err}");
+    }
+
+    /// An OpenEXR header of a few hundred bytes claiming 100 000² pixels is refused before the
+    /// exr crate allocates them (it aborted the process, out of memory); one claiming 64² pixels
+    /// that are not there fails for want of data, not of memory.
+    #[test]
+    fn exr_headers_claiming_huge_images_are_refused() {
+        let huge = dir().join("huge.exr");
+        std::fs::write(
+            &huge,
+            lightlab_testkit::files::exr_header_only(100_000, 100_000),
+        )
+        .unwrap();
+        let err = read_rgb_image(&huge, false).unwrap_err();
+        assert!(
+            err.contains("huge.exr") && err.contains("100000 × 100000") && err.contains("37 GiB"),
+            "{err}"
+        );
+        let small = dir().join("small-header.exr");
+        std::fs::write(&small, lightlab_testkit::files::exr_header_only(64, 64)).unwrap();
+        assert!(check_exr_size(&small).is_ok());
+        let err = read_rgb_image(&small, false).unwrap_err();
+        assert!(!err.contains("GiB"), "{err}");
     }
 
     /// An OpenEXR file with one luminance channel `Y` (Mitsuba's `mono` output) reads as grey;

@@ -11,6 +11,7 @@ pub mod desc;
 mod envmap;
 mod error;
 mod image;
+pub use image::check_exr_size;
 mod light;
 mod load;
 pub mod mitsuba;

@@ -1,8 +1,8 @@
 //! Statistical test support for Lightlab (a dev-dependency only): a chi-square goodness-of-fit
 //! harness for sampling routines ([`chi2`]) with gnomonic windows for narrow sets of directions
 //! ([`window`]), z-tests for Monte Carlo estimates and whole images, approximate-equality asserts
-//! and a least-squares line fit for convergence rates ([`stats`]), and wall/CPU timing for the
-//! benchmarks ([`timing`]).
+//! and a least-squares line fit for convergence rates ([`stats`]), wall/CPU timing for the
+//! benchmarks ([`timing`]), and crafted input files for bad-input tests ([`files`]).
 //!
 //! A new sampling routine's test is a few lines:
 //!
@@ -27,6 +27,7 @@
 //! runs; the fixed seeds make any given run reproducible.
 
 pub mod chi2;
+pub mod files;
 pub mod stats;
 pub mod timing;
 pub mod window;
