@@ -998,14 +998,21 @@ struct EmissionRaw {
     two_sided: bool,
 }
 
+impl EmissionDesc {
+    /// Checked emission: radiance ≥ 0, finite and at most [`MAX_EMITTED`] per channel.
+    pub fn new(radiance: Rgb, two_sided: bool) -> Result<Self, String> {
+        emitted_rgb("emission radiance", radiance)?;
+        Ok(EmissionDesc {
+            radiance,
+            two_sided,
+        })
+    }
+}
+
 impl TryFrom<EmissionRaw> for EmissionDesc {
     type Error = String;
     fn try_from(e: EmissionRaw) -> Result<Self, String> {
-        emitted_rgb("emission radiance", e.radiance)?;
-        Ok(EmissionDesc {
-            radiance: e.radiance,
-            two_sided: e.two_sided,
-        })
+        EmissionDesc::new(e.radiance, e.two_sided)
     }
 }
 

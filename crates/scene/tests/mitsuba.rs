@@ -952,6 +952,17 @@ fn emitters_become_lights() {
         ),
     );
     assert!(m.contains("rotation"), "{m}");
+    // An area emitter above the 10¹⁵ cap every other light has (it rendered black with light
+    // tracing, 10× too dark with BDPT and NaN with radiosity), located at its <emitter>.
+    let (line, _, m) = err(
+        "area-too-bright",
+        &format!(
+            r#"{SENSOR}
+<shape type="sphere">
+<emitter type="area"><rgb name="radiance" value="3e38"/></emitter></shape>"#
+        ),
+    );
+    assert!(m.contains("at most 1e15") && line > 1, "{line}: {m}");
 }
 
 /// The scene files from Mitsuba's tutorials (`../shared/mitsuba-scenes/`, beside the checkout)

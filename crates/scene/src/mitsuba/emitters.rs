@@ -19,10 +19,7 @@ pub(crate) fn area(el: &Element) -> Result<EmissionDesc, SceneError> {
     let radiance = o.color("radiance")?.unwrap_or(Rgb::WHITE);
     o.finish()?;
     non_negative(&o, "radiance", radiance)?;
-    Ok(EmissionDesc {
-        radiance,
-        two_sided: false,
-    })
+    EmissionDesc::new(radiance, false).map_err(|e| o.error(e))
 }
 
 /// A top-level `<emitter>`.
