@@ -219,10 +219,11 @@ pub fn parse_experiment(text: &str, path: &Path) -> Result<ExperimentDesc, Exper
             lightlab_scene::ron_message(&e.code)
         ))
     })?;
-    desc.check().map_err(|(needle, message)| {
-        let (line, col) = locate(text, &needle);
-        ExperimentError(format!("{}:{line}:{col}: {message}", path.display()))
-    })?;
+    desc.check(path.parent().unwrap_or(Path::new(".")))
+        .map_err(|(needle, message)| {
+            let (line, col) = locate(text, &needle);
+            ExperimentError(format!("{}:{line}:{col}: {message}", path.display()))
+        })?;
     desc.source = text.to_string();
     Ok(desc)
 }
@@ -245,7 +246,9 @@ pub(crate) fn locate_after(text: &str, anchor: &str, needle: &str) -> (usize, us
 
 impl ExperimentDesc {
     /// Semantic checks; on failure returns (text to locate, message).
-    fn check(&self) -> Result<(), (String, String)> {
+    /// Checks the settings; `base` is the experiment file's directory, which scene paths are
+    /// relative to.
+    fn check(&self, base: &Path) -> Result<(), (String, String)> {
         let err = |needle: &str, m: String| Err((needle.to_string(), m));
         if self.name.is_empty()
             || !self
@@ -273,14 +276,26 @@ impl ExperimentDesc {
         if self.scenes.is_empty() {
             return err("scenes", "scenes must list at least one scene file".into());
         }
+        // The same file however its path is written (`a.ron`, `./a.ron`, `../exp/a.ron`).
+        let file =
+            |s: &PathBuf| std::fs::canonicalize(base.join(s)).unwrap_or_else(|_| base.join(s));
         for (i, s) in self.scenes.iter().enumerate() {
-            if self.scenes[..i].contains(s) {
+            if let Some(earlier) = self.scenes[..i].iter().find(|e| file(e) == file(s)) {
                 return err(
                     &format!("\"{}\"", s.display()),
-                    format!(
-                        "scene \"{}\" is listed twice: its runs would be the same runs",
-                        s.display()
-                    ),
+                    if earlier == s {
+                        format!(
+                            "scene \"{}\" is listed twice: its runs would be the same runs",
+                            s.display()
+                        )
+                    } else {
+                        format!(
+                            "scenes \"{}\" and \"{}\" are the same file: its runs would be the \
+                             same runs",
+                            earlier.display(),
+                            s.display()
+                        )
+                    },
                 );
             }
         }

@@ -86,30 +86,56 @@ fn sanitize(s: &str) -> String {
         .collect()
 }
 
-/// The name of each scene in tables, run ids and seeds: its file stem (`cornell-box`), or its
-/// file name where two listed scenes share a stem (`box.ron`, `box.xml`), or the path as listed
-/// where they share that too (the list has no repeats: `ExperimentDesc::check`).
+/// The name of each scene in tables, run ids, seeds and file names: its file stem
+/// (`cornell-box`), or its file name where two listed scenes share a stem (`box.ron`, `box.xml`),
+/// or where they share that too the fewest last components of its path as listed that tell it
+/// apart, joined by '-' (`a/box.ron` and `b/box.ron`: `a-box.ron`, `b-box.ron`; never a path
+/// separator, which put files outside the results), and its place in the list if even the whole
+/// path does not (the list names no file twice: `ExperimentDesc::check`).
 fn scene_names(desc: &ExperimentDesc) -> Vec<String> {
-    let name = |s: &Path, f: fn(&Path) -> Option<&std::ffi::OsStr>| {
+    let scenes = &desc.scenes;
+    let part = |s: &Path, f: fn(&Path) -> Option<&std::ffi::OsStr>| {
         f(s).map_or("scene".into(), |s| s.to_string_lossy().into_owned())
     };
-    let unique = |s: &Path, f: fn(&Path) -> Option<&std::ffi::OsStr>| {
-        desc.scenes
-            .iter()
-            .filter(|o| name(o, f) == name(s, f))
-            .count()
-            == 1
+    let sharing = |s: &Path, f: fn(&Path) -> Option<&std::ffi::OsStr>| -> Vec<&PathBuf> {
+        scenes.iter().filter(|o| part(o, f) == part(s, f)).collect()
     };
-    desc.scenes
+    // The last k components of a path, joined by '-'.
+    let tail = |p: &Path, k: usize| {
+        let parts: Vec<String> = p
+            .components()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned())
+            .collect();
+        parts[parts.len().saturating_sub(k)..].join("-")
+    };
+    let names: Vec<String> = scenes
         .iter()
         .map(|s| {
-            if unique(s, Path::file_stem) {
-                name(s, Path::file_stem)
-            } else if unique(s, Path::file_name) {
-                name(s, Path::file_name)
+            if sharing(s, Path::file_stem).len() == 1 {
+                part(s, Path::file_stem)
+            } else if sharing(s, Path::file_name).len() == 1 {
+                part(s, Path::file_name)
             } else {
-                s.display().to_string()
+                let group = sharing(s, Path::file_name);
+                let deepest = group.iter().map(|p| p.components().count()).max();
+                let k = (1..=deepest.unwrap_or(1))
+                    .find(|&k| {
+                        let tails: std::collections::BTreeSet<String> =
+                            group.iter().map(|p| tail(p, k)).collect();
+                        tails.len() == group.len()
+                    })
+                    .unwrap_or(usize::MAX);
+                tail(s, k)
             }
+        })
+        .collect();
+    // Names joined from parts can still meet (`a/c.ron` beside `a-c.ron`): those get their place.
+    names
+        .iter()
+        .enumerate()
+        .map(|(i, n)| match names.iter().filter(|m| *m == n).count() {
+            1 => n.clone(),
+            _ => format!("{n}-{}", i + 1),
         })
         .collect()
 }
@@ -272,6 +298,44 @@ mod tests {
             e.contains("exp/e.ron") && e.contains("\"pt\"") && e.contains("max_bounce"),
             "{e}"
         );
+    }
+
+    /// Scene names never hold a path separator: scenes sharing a file name are told apart by
+    /// their last path components (the path as listed went into file names, and `..` in it put
+    /// references and plots outside the results). One file listed under two paths is refused.
+    #[test]
+    fn scene_names_are_file_names_and_files_are_listed_once() {
+        let names = |scenes: &str| {
+            let text = format!(
+                r#"Experiment(name: "t", scenes: [{scenes}], reference: Render(integrator: "Path()", spp: 8),
+                   methods: [(label: "pt", integrator: "Path")], trials: 2)"#
+            );
+            let d = parse_experiment(&text, Path::new("exp/e.ron")).unwrap();
+            scene_names(&d)
+        };
+        assert_eq!(
+            names(r#""a/box.ron", "b/box.ron", "box.xml", "c.ron""#),
+            ["a-box.ron", "b-box.ron", "box.xml", "c"]
+        );
+        assert_eq!(
+            names(r#""../../x/s/box.ron", "../y/s/box.ron", "box.ron""#),
+            ["x-s-box.ron", "y-s-box.ron", "box.ron"]
+        );
+        assert_eq!(
+            names(r#""a/c.ron", "b/c.ron", "a-c.ron", "a-c.xml""#),
+            ["a-c.ron-1", "b-c.ron", "a-c.ron-3", "a-c.xml"]
+        );
+        let text = r#"Experiment(name: "t", scenes: ["s/box.ron", "./s/../s/box.ron"],
+            reference: Render(integrator: "Path()", spp: 8), methods: [(label: "pt", integrator: "Path")])"#;
+        let dir = std::env::temp_dir().join(format!("lightlab-names-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("s")).unwrap();
+        std::fs::write(dir.join("s/box.ron"), "").unwrap();
+        let e = parse_experiment(text, &dir.join("e.ron")).unwrap_err().0;
+        assert!(
+            e.contains("\"s/box.ron\" and \"./s/../s/box.ron\" are the same file"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
