@@ -232,14 +232,18 @@ impl System<'_> {
     }
 
     /// Cohen et al. (1988)'s ambient radiosity for the unshot ΔB: Σ ΔB_a A_a / Σ A_a over the
-    /// reflecting unknowns that see other patches, times 1/(1 − ρ̄) for ρ̄ their area-averaged
-    /// reflectance. A side that sees nothing (the outside of a closed shape, facing empty space)
-    /// neither receives light nor passes its own on: counted, it made the furnace's image 22 %
-    /// too bright after one round of shots. In a closed sphere of uniform ρ, where F_ab = A_b / A,
-    /// the term is then exact: (I − ρF)⁻¹ρFΔB = ρ ΔB̄ / (1 − ρ).
+    /// unknowns that other patches see, times 1/(1 − ρ̄) for ρ̄ their area-averaged reflectance.
+    /// A side that nothing sees (the outside of a closed shape, facing empty space) neither
+    /// receives light nor passes its own on: counted, it made the furnace's image 22 % too bright
+    /// after one round of shots. A light that reflects nothing counts: its unshot emission is most
+    /// of what is left to shoot (left out, the term added nothing before the first shots). Seen
+    /// means a column of F̂ that is not empty: a side that does not reflect has no row.
+    /// In a closed sphere of uniform ρ, where F_ab = A_b / A, the term is exact:
+    /// (I − ρF)⁻¹ρFΔB = ρ ΔB̄ / (1 − ρ).
     pub fn ambient(&self, unshot: &[[f64; 3]]) -> [f64; 3] {
         let (mut area, mut rho, mut du) = (0.0, [0.0; 3], [0.0; 3]);
-        let exchanges = |a: usize| self.reflects(a) && !self.rows.row(a).is_empty();
+        let seen = self.rows.columns();
+        let exchanges = |a: usize| !seen.row(a).is_empty();
         for a in (0..self.len()).filter(|&a| exchanges(a)) {
             area += self.area[a];
             for c in 0..3 {
