@@ -124,9 +124,12 @@ pub trait Validate {
     fn validate(&self) -> Result<(), ConfigError>;
 }
 
-/// The bounce settings every integrator shares: unbounded paths need Russian roulette,
-/// `min_bounces ≤ max_bounces` and a roulette threshold in (0, 1]; and the path-class settings
-/// (`paths`, `layers`), which must parse.
+/// The most bounces a path may take without Russian roulette ([`check_common`]).
+pub(crate) const MAX_BOUNCES_WITHOUT_ROULETTE: u32 = 1 << 16;
+
+/// The bounce settings every integrator shares: unbounded paths need Russian roulette, and
+/// without it at most [`MAX_BOUNCES_WITHOUT_ROULETTE`] bounces; `min_bounces ≤ max_bounces` and a
+/// roulette threshold in (0, 1]; and the path-class settings (`paths`, `layers`), which must parse.
 pub(crate) fn check_common(
     max_bounces: Option<u32>,
     min_bounces: u32,
@@ -139,6 +142,16 @@ pub(crate) fn check_common(
             "unbounded paths (max_bounces: None) need Russian roulette: set max_bounces or \
              russian_roulette",
         );
+    }
+    if let Some(max) = max_bounces
+        && roulette.start.is_none()
+        && max > MAX_BOUNCES_WITHOUT_ROULETTE
+    {
+        return invalid(format!(
+            "max_bounces {max} without Russian roulette: at most {MAX_BOUNCES_WITHOUT_ROULETTE} \
+             (where nothing absorbs, as in a white furnace, every path is traced to that depth, \
+             and bidirectional methods store every vertex); set russian_roulette for longer paths"
+        ));
     }
     if !(roulette.threshold > 0.0 && roulette.threshold <= 1.0) {
         return invalid(format!(
@@ -420,6 +433,22 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("Russian roulette"), "{e}");
+        // Four billion bounces without roulette: a white furnace traced every path that deep,
+        // and BDPT stored every vertex (gigabytes, growing). 65 536 is accepted, with roulette any.
+        for integrator in ["Path", "Bdpt", "Vcm", "Light", "Sppm", "PhotonMap"] {
+            let e = IntegratorConfig::from_ron(&format!(
+                "{integrator}(max_bounces: 4294967295, russian_roulette: None)"
+            ))
+            .unwrap_err()
+            .to_string();
+            assert!(e.contains("at most 65536"), "{integrator}: {e}");
+            for ok in [
+                "max_bounces: 65536, russian_roulette: None",
+                "max_bounces: 4294967295",
+            ] {
+                IntegratorConfig::from_ron(&format!("{integrator}({ok})")).unwrap();
+            }
+        }
         for tau in ["0", "-0.5", "1.5", "inf", "NaN"] {
             let e = IntegratorConfig::from_ron(&format!("Path(roulette_threshold: {tau})"))
                 .unwrap_err()

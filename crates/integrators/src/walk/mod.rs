@@ -328,6 +328,11 @@ fn scatter<S: Sampler, V: Visitor>(
     }
     visitor.scattered(v, &s);
     *beta *= s.weight;
+    // A throughput that underflowed to zero (hundreds of bounces without roulette) carries
+    // nothing further: the walk ends rather than tracing zeros to its depth limit.
+    if beta.is_black() {
+        return None;
+    }
     if !roulette.survives(v.depth, &s, u_rr, beta) {
         return None;
     }
@@ -482,6 +487,23 @@ mod tests {
                 "light side {light}"
             );
             assert_eq!(counters.rays, 100);
+        }
+    }
+
+    /// Without roulette and with no depth limit to speak of, a walk in a furnace of albedo 1/2 ends
+    /// when its throughput underflows to zero: 2⁻¹⁴⁹ is f32's smallest, so after about 150
+    /// vertices on the camera side (β starts at 1) and a few more on the light side (β starts at
+    /// the emitted flux). It traced zeros on to the depth limit, and BDPT stored them.
+    #[test]
+    fn a_throughput_of_zero_ends_the_walk() {
+        let scene = furnace(0.5);
+        for light in [false, true] {
+            let (depths, _) = walks(&scene, walk(light, 1 << 16, RoulettePolicy::OFF), 20, light);
+            let longest = depths.iter().map(Vec::len).max().unwrap();
+            assert!(
+                (140..200).contains(&longest),
+                "light side {light}: {longest} vertices"
+            );
         }
     }
 
