@@ -4,7 +4,7 @@ use clap::Args;
 use lightlab_experiments::compare::{FEW_EFFECTIVE_SAMPLES, Region, ZTest, compare, error_layers};
 use lightlab_experiments::image_io::write_exr;
 use lightlab_experiments::reference::load_foreign;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Compare two EXR images — Lightlab's own or another renderer's (plain R, G, B channels, or
 /// prefixed layers such as `radiance.R`): the image means and their ratio, MSE and relMSE, and,
@@ -117,6 +117,27 @@ fn not_an_estimate(stats: Option<&serde_json::Value>) -> Option<&str> {
 pub fn run(args: CompareArgs) -> Result<(), String> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         return Err(format!("--alpha must be in (0, 1), got {}", args.alpha));
+    }
+    if let Some(error) = &args.error {
+        let same = |input: &Path| {
+            std::fs::canonicalize(input)
+                .is_ok_and(|i| std::fs::canonicalize(error).is_ok_and(|e| e == i))
+        };
+        let inputs = [
+            Some(&args.a),
+            Some(&args.b),
+            args.variance_a.as_ref(),
+            args.variance_b.as_ref(),
+            args.mask.as_ref(),
+        ];
+        if let Some(input) = inputs.into_iter().flatten().find(|i| same(i)) {
+            return Err(format!(
+                "--error {} is one of the images compared ({}): the error images would replace \
+                 it; write them to another file",
+                error.display(),
+                input.display()
+            ));
+        }
     }
     let a = load_foreign(&args.a, args.layer_a.as_deref(), args.variance_a.as_deref())?;
     let b = load_foreign(&args.b, args.layer_b.as_deref(), args.variance_b.as_deref())?;

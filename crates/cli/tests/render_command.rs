@@ -632,6 +632,14 @@ fn compare_two_renders() {
         layers.iter().map(|l| l.name.as_str()).collect::<Vec<_>>(),
         ["difference", "relative", "z"]
     );
+    // The error images written over an input replaced it.
+    let before = std::fs::read(dir.join("b.exr")).unwrap();
+    let (code, _, err) = run(&["a.exr", "b.exr", "--error", "./b.exr"]);
+    assert!(
+        code == Some(1) && err.contains("is one of the images compared (b.exr)"),
+        "{err}"
+    );
+    assert!(std::fs::read(dir.join("b.exr")).unwrap() == before);
     let (code, _, err) = run(&["a.exr", "b.exr", "--region", "0,0,99,2"]);
     assert!(code == Some(1) && err.contains("past"), "{err}");
     // One NaN pixel made the MSE NaN, printed as a result: now the file and pixel are named.
