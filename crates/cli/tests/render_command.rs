@@ -215,6 +215,20 @@ fn bad_input_is_an_error_not_a_panic() {
         ),
     ];
     let mut cases = cases;
+    // An expression matching no path within the bounce limit rendered black without a word.
+    cases.push((
+        vec![
+            "render".into(),
+            repo().join("scenes/cornell-box.ron").display().to_string(),
+            "-i".into(),
+            "Path(max_bounces: 1)".into(),
+            "--paths".into(),
+            "LDDE".into(),
+            "-o".into(),
+            dir.join("black-paths.exr").display().to_string(),
+        ],
+        "matches no path of 0 to 1 scattering vertices",
+    ));
     // A few hundred bytes of EXR header claiming 100 000² pixels: the allocation aborted.
     let huge = dir.join("huge-header.exr");
     std::fs::write(

@@ -353,6 +353,8 @@ impl ExperimentDesc {
             && let Err(e) = lightlab_integrators::paths::Router::check(
                 None,
                 &lightlab_integrators::paths::Layers::Classes(self.classes.clone()),
+                0,
+                None,
             )
         {
             return err("classes", format!("classes: {e}"));

@@ -167,7 +167,7 @@ pub(crate) fn check_common(
             "min_bounces ({min_bounces}) exceeds max_bounces ({max})"
         ));
     }
-    Router::check(paths, layers).map_err(ConfigError::Invalid)
+    Router::check(paths, layers, min_bounces, max_bounces).map_err(ConfigError::Invalid)
 }
 
 /// Most replicates a sampler's samples may be split into (each holds 24 bytes per pixel and layer).

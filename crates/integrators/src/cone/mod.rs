@@ -81,7 +81,13 @@ impl Validate for ConeConfig {
                 self.min_bounces, self.max_bounces
             ));
         }
-        Router::check(self.paths.as_deref(), &self.layers).map_err(ConfigError::Invalid)
+        Router::check(
+            self.paths.as_deref(),
+            &self.layers,
+            self.min_bounces,
+            Some(self.max_bounces),
+        )
+        .map_err(ConfigError::Invalid)
     }
 }
 

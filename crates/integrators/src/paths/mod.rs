@@ -10,6 +10,7 @@ pub mod regex;
 pub use class::PathClass;
 pub use regex::{PathRegex, PathRegexError};
 
+use class::MAX_RECORDED;
 use serde::{Deserialize, Serialize};
 
 /// Which layers an integrator writes besides the full image.
@@ -96,9 +97,35 @@ impl Router {
         Ok(Router { filter, split })
     }
 
-    /// Checks settings without keeping the router (for configuration parsing).
-    pub fn check(paths: Option<&str>, layers: &Layers) -> Result<(), String> {
-        Router::new(paths, layers, None).map(|_| ())
+    /// Checks settings without keeping the router (for configuration parsing), and that `paths`
+    /// matches some path of `min_bounces` to `max_bounces` scattering vertices (else every path
+    /// would be filtered out, and the image black without a word).
+    pub fn check(
+        paths: Option<&str>,
+        layers: &Layers,
+        min_bounces: u32,
+        max_bounces: Option<u32>,
+    ) -> Result<(), String> {
+        let router = Router::new(paths, layers, None)?;
+        if let Some(filter) = &router.filter
+            && filter
+                .lengths(min_bounces, max_bounces.unwrap_or(u32::MAX))
+                .is_empty()
+        {
+            let all = filter.lengths(0, u32::MAX);
+            return Err(format!(
+                "paths: \"{}\" matches no path of {} scattering vertices (bounces), so every path \
+                 would be filtered out and the image black; it matches {}",
+                filter.as_str(),
+                match max_bounces {
+                    Some(max) if max == min_bounces => format!("{max}"),
+                    Some(max) => format!("{min_bounces} to {max}"),
+                    None => format!("{min_bounces} or more"),
+                },
+                describe_lengths(&all)
+            ));
+        }
+        Ok(())
     }
 
     /// Number of layers besides the full image.
@@ -155,9 +182,67 @@ impl Router {
     }
 }
 
+/// Numbers of scattering vertices as a phrase: "paths of 2", "paths of 1, 3 or 5", "paths of 2
+/// or more" (a run up to [`MAX_RECORDED`], past which no path matches).
+fn describe_lengths(lengths: &[u32]) -> String {
+    match lengths {
+        [] => format!("no path of up to {MAX_RECORDED} scattering vertices"),
+        [1] => "paths of 1 scattering vertex".into(),
+        [k] => format!("paths of {k} scattering vertices"),
+        [first, .., last] if *last == MAX_RECORDED && lengths.len() as u32 == last - first + 1 => {
+            format!("paths of {first} or more scattering vertices")
+        }
+        [rest @ .., last] => {
+            let rest: Vec<String> = rest.iter().map(u32::to_string).collect();
+            format!("paths of {} or {last} scattering vertices", rest.join(", "))
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An expression that matches no path within the bounce limits is refused, saying which
+    /// lengths it matches: `--paths LDDE` with `max_bounces: 1` rendered black without a word.
+    #[test]
+    fn paths_outside_the_bounce_limits_are_refused() {
+        let check = |paths: &str, min: u32, max: Option<u32>| {
+            Router::check(Some(paths), &Layers::Off, min, max)
+        };
+        let e = check("LDDE", 0, Some(1)).unwrap_err();
+        assert!(
+            e.contains("\"LDDE\" matches no path of 0 to 1 scattering vertices")
+                && e.contains("it matches paths of 2 scattering vertices"),
+            "{e}"
+        );
+        let e = check("LDE|LDDDE", 2, Some(2)).unwrap_err();
+        assert!(
+            e.contains("of 2 scattering") && e.contains("paths of 1 or 3"),
+            "{e}"
+        );
+        let e = check("LD+E", 0, Some(0)).unwrap_err();
+        assert!(e.contains("paths of 1 or more"), "{e}");
+        let e = check("LE", 1, None).unwrap_err();
+        assert!(
+            e.contains("1 or more scattering") && e.contains("paths of 0 scattering"),
+            "{e}"
+        );
+        for (paths, min, max) in [
+            ("LDDE", 0, Some(2)),
+            ("LD+E", 5, None),
+            ("LS*DE", 3, Some(3)),
+            ("LE", 0, Some(0)),
+        ] {
+            check(paths, min, max).unwrap();
+        }
+        // Layers may be empty at a bounce limit (an experiment's classes under a max_bounces sweep).
+        Router::check(None, &Layers::Classes(vec!["LDDE".into()]), 0, Some(1)).unwrap();
+        // Past the recorded 32 vertices no path matches.
+        let long = format!("L{}E", "D".repeat(33));
+        let e = check(&long, 0, None).unwrap_err();
+        assert!(e.contains("no path of up to 32"), "{e}");
+    }
 
     /// A bounce layer that holds every count from its own on says so with `+`: the last layer of
     /// an unbounded walk, and of a walk with more bounces than the 64 layers; never a layer of

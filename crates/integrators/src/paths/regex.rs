@@ -6,7 +6,7 @@
 //! Compiled by Thompson's construction (Thompson 1968) to an NFA and by the subset construction
 //! to a DFA, so matching a path is one table lookup per vertex.
 
-use super::class::PathClass;
+use super::class::{MAX_RECORDED, PathClass};
 use lightlab_materials::LobeClass;
 use std::collections::HashMap;
 use std::fmt;
@@ -408,6 +408,32 @@ impl PathRegex {
             stack.extend([D, G, S].map(|sym| self.next[s as usize][sym]));
         }
         false
+    }
+
+    /// The numbers of scattering vertices, from `min` to `max` (and at most [`MAX_RECORDED`],
+    /// beyond which no path matches), of the paths the expression matches: the sets of DFA states
+    /// reached after k of D, G or S, one k after the other.
+    pub fn lengths(&self, min: u32, max: u32) -> Vec<u32> {
+        let mut states = vec![self.next[1][L]];
+        let mut lengths = Vec::new();
+        for k in 0..=max.min(MAX_RECORDED) {
+            if k >= min
+                && states
+                    .iter()
+                    .any(|&s| self.accept[self.next[s as usize][E] as usize])
+            {
+                lengths.push(k);
+            }
+            let mut next: Vec<u32> = states
+                .iter()
+                .flat_map(|&s| [D, G, S].map(|sym| self.next[s as usize][sym]))
+                .filter(|&s| s != DEAD)
+                .collect();
+            next.sort_unstable();
+            next.dedup();
+            states = next;
+        }
+        lengths
     }
 
     /// Whether the path `L class E` matches. Paths longer than the recorded vertices never do.

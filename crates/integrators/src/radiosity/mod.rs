@@ -153,7 +153,13 @@ impl Validate for RadiosityConfig {
                 "ambient is the display term of progressive shooting: use solver: Shooting",
             );
         }
-        Router::check(self.paths.as_deref(), &self.layers).map_err(ConfigError::Invalid)
+        Router::check(
+            self.paths.as_deref(),
+            &self.layers,
+            self.min_bounces,
+            self.max_bounces,
+        )
+        .map_err(ConfigError::Invalid)
     }
 }
 
