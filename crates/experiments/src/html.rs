@@ -40,7 +40,7 @@ const HELP: [(&str, &str); 14] = [
     ),
     (
         "efficiency",
-        "1 / (mean MSE × mean seconds): a ratio of means, not the mean of per-trial ratios",
+        "1 / (mean MSE × mean seconds): a ratio of means, not the mean of per-trial ratios; ± a delta-method standard error on T − 1 degrees of freedom. With few trials or a noisy mean error it is biased high (about Var(MSE̅)/MSE̅²; summary.json's relative_bias) and skewed: read the ± as a scale",
     ),
     (
         "relMSE × t",
