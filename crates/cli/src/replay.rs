@@ -68,6 +68,10 @@ pub fn run(args: ReplayArgs) -> Result<(), String> {
             args.spp - 1
         ));
     }
+    // The render being replayed passed the same check (replicates must divide the samples).
+    config
+        .build()?
+        .check_budget(&lightlab_integrators::Budget::Samples(args.spp))?;
     let (seed, spp, pixel, sample) = (args.seed, args.spp, args.pixel, args.sample);
     let contributions = match config {
         IntegratorConfig::Bdpt(c) => Bdpt::new(c)?.replay(&scene, seed, spp, pixel, sample),

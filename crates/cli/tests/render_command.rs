@@ -797,5 +797,26 @@ fn outliers_replay_from_the_command_they_name() {
             "{line} does not reproduce {o}"
         );
     }
+    // A sample count the render would refuse (3 replicates do not divide 4 samples) is refused.
+    let out = lightlab()
+        .args([
+            "replay",
+            "-i",
+            "Bdpt(replicates: 3)",
+            "--spp",
+            "4",
+            "--pixel",
+            "0,0",
+            "--sample",
+            "0",
+        ])
+        .arg(repo().join("scenes/cornell-box.ron"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("cannot be split into 3 equal replicates"),
+        "{err}"
+    );
     std::fs::remove_dir_all(dir).unwrap();
 }
