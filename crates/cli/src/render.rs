@@ -69,8 +69,21 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
 }
 
 /// The EXR path for `-o`: `.exr` as given, no extension gets `.exr`; anything else is refused,
-/// since the PNG and JSON written beside it would take that name.
+/// since the PNG and JSON written beside it would take that name, and so is a directory.
 fn exr_path(output: &std::path::Path) -> Result<PathBuf, String> {
+    // `-o out/` named a directory, and the files went beside it as out.exr, out.png, out.json.
+    if output.is_dir()
+        || output
+            .as_os_str()
+            .to_string_lossy()
+            .ends_with(std::path::MAIN_SEPARATOR)
+    {
+        return Err(format!(
+            "-o {}: names a directory; give the image's file name, e.g. {}",
+            output.display(),
+            output.join("render.exr").display()
+        ));
+    }
     match output.extension().and_then(|e| e.to_str()) {
         None => Ok(output.with_extension("exr")),
         Some(e) if e.eq_ignore_ascii_case("exr") => Ok(output.to_path_buf()),

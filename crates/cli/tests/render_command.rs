@@ -468,6 +468,13 @@ fn outputs_never_overwrite_each_other() {
     }
     let (w, h, _) = read_exr(&dir.join("plain.exr")).unwrap();
     assert_eq!((w, h), (4, 3));
+    // A directory is no file name: `-o out/` wrote out.exr, out.png and out.json beside it.
+    std::fs::create_dir_all(dir.join("out")).unwrap();
+    for out in [dir.join("out"), dir.join("new/")] {
+        let (ok, _, stderr) = render_with(&scene, &["--spp", "1"], &out);
+        assert!(!ok && stderr.contains("names a directory"), "{stderr}");
+    }
+    assert!(!dir.join("out.exr").exists() && !dir.join("new.exr").exists());
     std::fs::remove_dir_all(dir).ok();
 }
 
