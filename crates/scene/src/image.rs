@@ -24,6 +24,12 @@ pub(crate) fn read_rgb_image(path: &Path, raw: bool) -> Result<RgbImage, String>
 }
 
 fn read_any(path: &Path, raw: bool) -> Result<RgbImage, String> {
+    if path.is_dir() {
+        return Err(format!(
+            "image file {} is a directory, not an image",
+            path.display()
+        ));
+    }
     if !path.is_file() {
         return Err(format!("image file {} does not exist", path.display()));
     }
@@ -285,6 +291,8 @@ mod tests {
         .unwrap();
         let err = read_rgb_image(&huge, false).unwrap_err();
         assert!(err.contains("more than 4 GiB"), "{err}");
+        let err = read_rgb_image(&dir(), false).unwrap_err();
+        assert!(err.contains("is a directory"), "{err}");
         let empty = dir().join("empty.hdr");
         std::fs::write(&empty, b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n").unwrap();
         let err = read_rgb_image(&empty, false).unwrap_err();
