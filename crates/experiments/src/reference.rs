@@ -175,17 +175,27 @@ pub fn reference(
         }
     }
     // Errors against a NaN or an infinity are not numbers: refuse before any run is measured.
-    let unusable = |what: &str, e: String| {
+    let unusable = |file: &Path, what: &str, e: String| {
         format!(
             "reference {}{what}: {e}; a reference must be finite everywhere (fix or replace the \
              file, or the scene whose lights overflow 32-bit floats)",
-            path.display()
+            file.display()
         )
     };
-    image.check_finite().map_err(|e| unusable("", e))?;
+    // A variance from a separate file is that file's fault.
+    let variance_file = match desc {
+        ReferenceDesc::Exr {
+            variance: Some(v), ..
+        } => Some(experiment_dir.join(v)),
+        _ => None,
+    };
+    image.check_finite().map_err(|e| match &variance_file {
+        Some(v) if e.starts_with("the variance") => unusable(v, " (its variance file)", e),
+        _ => unusable(&path, "", e),
+    })?;
     for (name, c) in &classes {
         c.check_finite()
-            .map_err(|e| unusable(&format!(", layer {name}"), e))?;
+            .map_err(|e| unusable(&path, &format!(", layer {name}"), e))?;
     }
     Ok(Reference {
         image,

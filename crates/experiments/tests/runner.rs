@@ -691,9 +691,13 @@ fn non_finite_references_are_refused_before_any_run() {
         e.contains("ref.exr") && e.contains("1 pixels are NaN or infinite") && e.contains("(3, 2)"),
         "{e}"
     );
+    // A bad variance given as a file of its own names that file, not the image.
     let e = attempt(1.0, -1.0).map(|o| o.ran).unwrap_err();
     assert!(
-        e.contains("variance of 1 pixels") && e.contains("(5, 1)"),
+        e.contains("var.exr (its variance file)")
+            && !e.contains("ref.exr")
+            && e.contains("variance of 1 pixels")
+            && e.contains("(5, 1)"),
         "{e}"
     );
     assert!(
