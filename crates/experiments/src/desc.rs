@@ -43,6 +43,10 @@ pub struct ExperimentDesc {
     /// `rest` layer, and each gets its own metrics and plots. Default: none.
     #[serde(default)]
     pub classes: Vec<String>,
+    /// Convergence fits use only the settings with at least this many samples per pixel (mean
+    /// over trials; all are plotted): rates are asymptotic. Default: every setting.
+    #[serde(default)]
+    pub fit_from: Option<u32>,
     /// The file's text, to locate errors found later (when runs are expanded).
     #[serde(skip)]
     pub source: String,

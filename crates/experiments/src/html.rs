@@ -73,7 +73,7 @@ const HELP: [(&str, &str); 14] = [
     ),
     (
         "slope",
-        "weighted least-squares fit of ln MSE against ln spp, with its 95 % interval (Birge-scaled) and χ²/dof; points with MSE ≤ 0 are left out",
+        "weighted least-squares fit of ln MSE against ln spp, with its 95 % interval (Birge-scaled) and χ²/dof; points whose mean MSE is not significantly above 0 (at most 2 standard errors) are left out of the fit and counted in the legend",
     ),
 ];
 

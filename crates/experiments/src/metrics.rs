@@ -363,8 +363,10 @@ pub struct Fit {
     /// χ² per degree of freedom of the weighted fit (`None` without standard errors or with two
     /// points); well above 1 means the data are not one power law.
     pub chi2_per_dof: Option<f64>,
-    /// x of the points left out because their y is not positive (an error at or below the
-    /// reference's noise, after subtracting it), so that no point vanishes silently.
+    /// x of the points left out because their y is not significantly positive — y ≤ 0 (an
+    /// error at or below the reference's noise, after subtracting it) or, with a standard error,
+    /// y ≤ 2 se, where ln y is dominated by noise and truncated from below (such points, kept,
+    /// flattened the slope) — so that no point vanishes silently.
     pub excluded: Vec<f64>,
 }
 
@@ -376,7 +378,7 @@ pub fn fit_power_law(points: &[(f64, f64, f64)], pooled: bool) -> Option<Fit> {
         if !(x > 0.0 && x.is_finite()) {
             continue;
         }
-        if !(y > 0.0 && y.is_finite()) {
+        if !(y > 0.0 && y.is_finite() && y > 2.0 * se) {
             excluded.push(x);
             continue;
         }
@@ -637,14 +639,16 @@ mod tests {
                 .slope_ci95
                 .is_infinite()
         );
-        // Non-positive points are left out and listed.
+        // Points not significantly positive (≤ 0, or within 2 standard errors of 0) are left out
+        // and listed.
         let mut with_zero = pts.clone();
         with_zero.push((1e5, -1e-9, 1e-9));
         with_zero.push((2e5, 0.0, 1e-9));
+        with_zero.push((4e5, 1.9e-9, 1e-9));
         let f = fit_power_law(&with_zero, false).unwrap();
         assert_eq!(
             (f.points, f.excluded.clone()),
-            (10, vec![1e5, 2e5]),
+            (10, vec![1e5, 2e5, 4e5]),
             "{f:?}"
         );
     }

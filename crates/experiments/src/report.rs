@@ -470,7 +470,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
     let summary = serde_json::json!({
         "runs": records.len(),
         "rel_mse_epsilon": REL_EPSILON,
-        "metrics": "mse and rel_mse have the reference's own variance subtracted where it is an estimate (see warnings); values are (mean over trials, standard error over the trials); reference_se is the standard error the reference's own noise adds to mse, rel_mse and bias2, common to every setting against that reference (independent reference pixels assumed; null without a reference variance); bias2_se and variance_se are leave-one-out jackknife standard errors (T ≥ 3 trials; conservative); efficiency = 1/(mean error × mean seconds) with a delta-method standard error on degrees_of_freedom = T − 1 and relative_bias, its second-order bias (positive: too high) from the trials' spread, error_significant false where the mean error is not significantly above zero; convergence fits weight each point by its pooled log-space standard error and list the points left out (MSE ≤ 0)",
+        "metrics": "mse and rel_mse have the reference's own variance subtracted where it is an estimate (see warnings); values are (mean over trials, standard error over the trials); reference_se is the standard error the reference's own noise adds to mse, rel_mse and bias2, common to every setting against that reference (independent reference pixels assumed; null without a reference variance); bias2_se and variance_se are leave-one-out jackknife standard errors (T ≥ 3 trials; conservative); efficiency = 1/(mean error × mean seconds) with a delta-method standard error on degrees_of_freedom = T − 1 and relative_bias, its second-order bias (positive: too high) from the trials' spread, error_significant false where the mean error is not significantly above zero; convergence fits weight each point by its pooled log-space standard error and list the points left out (mean MSE ≤ 2 standard errors: not significantly above zero, where ln MSE is noise)",
         "settings": settings,
         "convergence": plots.fits,
         "plots": plots.files,
@@ -574,7 +574,10 @@ fn legend_with_dropped(label: &str, points: &[(f64, f64, f64)]) -> String {
 fn fit_legend(label: &str, f: &Fit) -> String {
     let mut text = format!("{label}: slope {:.2} ± {:.2}", f.slope, f.slope_ci95);
     if !f.excluded.is_empty() {
-        text += &format!(" ({} point(s) with MSE ≤ 0 left out)", f.excluded.len());
+        text += &format!(
+            " ({} point(s) not significantly above 0 left out of the fit)",
+            f.excluded.len()
+        );
     }
     text
 }
@@ -709,6 +712,14 @@ pub fn plot_from_csv(out_dir: &Path) -> io::Result<Vec<String>> {
 
 fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
     let pts = points(rows);
+    // The experiment's `fit_from`, from the copy of its file kept with the results (none for
+    // results without one).
+    let source = out_dir.join("experiment.ron");
+    let fit_from = std::fs::read_to_string(&source)
+        .ok()
+        .and_then(|text| crate::desc::parse_experiment(&text, &source).ok())
+        .and_then(|d| d.fit_from)
+        .map_or(0.0, f64::from);
     let mut scenes: Vec<&str> = pts.iter().map(|p| p.scene.as_str()).collect();
     scenes.dedup();
     let mut fits = Vec::new();
@@ -754,7 +765,9 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
             a.sort_by(|x, y| x.0.total_cmp(&y.0));
             b.sort_by(|x, y| x.0.total_cmp(&y.0));
             c.sort_by(|x, y| x.0.total_cmp(&y.0));
-            let fit = fit_power_law(&a, true);
+            let fitted: Vec<(f64, f64, f64)> =
+                a.iter().filter(|p| p.0 >= fit_from).copied().collect();
+            let fit = fit_power_law(&fitted, true);
             let legend = match &fit {
                 Some(f) => fit_legend(label, f),
                 None => legend_with_dropped(label, &a),
@@ -858,7 +871,9 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                 }
                 a.sort_by(|x, y| x.0.total_cmp(&y.0));
                 b.sort_by(|x, y| x.0.total_cmp(&y.0));
-                let fit = fit_power_law(&a, true);
+                let fitted: Vec<(f64, f64, f64)> =
+                    a.iter().filter(|p| p.0 >= fit_from).copied().collect();
+                let fit = fit_power_law(&fitted, true);
                 by_spp.push(Series {
                     label: fit
                         .as_ref()

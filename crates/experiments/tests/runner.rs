@@ -487,9 +487,25 @@ fn summary_efficiency_is_a_ratio_of_means() {
         assert!(e["error_significant"].is_boolean());
         assert!(s["rel_efficiency"]["error_significant"].is_boolean());
     }
-    for fit in summary["convergence"].as_array().unwrap() {
-        assert!(fit["fit"]["excluded"].is_array(), "{fit}");
-    }
+    let fitted = |summary: &serde_json::Value| -> Vec<usize> {
+        summary["convergence"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| {
+                f["fit"]["points"].as_u64().unwrap() as usize
+                    + f["fit"]["excluded"].as_array().unwrap().len()
+            })
+            .collect()
+    };
+    assert_eq!(fitted(&summary), [3, 3], "spp 1, 2 and 4");
+    // `fit_from: 2`, added to the experiment and run again (nothing renders), fits spp 2 and 4.
+    let text = std::fs::read_to_string(&exp).unwrap();
+    std::fs::write(&exp, text.replace("seed: 9,", "seed: 9,\n    fit_from: 2,")).unwrap();
+    run(&exp, &dir.join("results"), None);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(fitted(&summary), [2, 2], "spp 2 and 4");
     std::fs::remove_dir_all(dir).unwrap();
 }
 
