@@ -146,6 +146,30 @@ fn parse_spec(s: &str) -> Result<(String, IntegratorConfig, u32), String> {
 }
 
 pub fn run(args: BenchArgs) -> Result<(), String> {
+    // Said before the benchmark runs, not after it.
+    if let Some(json) = &args.json {
+        let dir = json.parent().filter(|d| !d.as_os_str().is_empty());
+        if json.is_dir()
+            || json
+                .as_os_str()
+                .to_string_lossy()
+                .ends_with(std::path::MAIN_SEPARATOR)
+        {
+            return Err(format!(
+                "--json {}: names a directory; give a file name",
+                json.display()
+            ));
+        }
+        if let Some(dir) = dir
+            && !dir.is_dir()
+        {
+            return Err(format!(
+                "--json {}: the directory {} does not exist",
+                json.display(),
+                dir.display()
+            ));
+        }
+    }
     let specs: Vec<String> = if args.integrator.is_empty() {
         [
             "Path()@256",

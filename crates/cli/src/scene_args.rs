@@ -43,6 +43,14 @@ impl SceneArgs {
         &self,
         integrator_given: bool,
     ) -> Result<(Scene, Option<String>, Option<u32>), String> {
+        // `-D res=16 -D res=8` kept the last without a word.
+        for (i, (name, _)) in self.define.iter().enumerate() {
+            if self.define[..i].iter().any(|(n, _)| n == name) {
+                return Err(format!(
+                    "-D {name} is given twice: give each parameter once"
+                ));
+            }
+        }
         if lightlab_scene::mitsuba::is_mitsuba(&self.scene) {
             if !self.set.is_empty() {
                 return Err(format!(

@@ -154,6 +154,9 @@ fn bench_rejects_bad_flags() {
         (vec!["-i", "Nope()@4"], "Nope"),
         (vec!["--threads", "0"], "thread count"),
         (vec!["--trials", "0"], "--trials"),
+        // Said at once, not after the whole benchmark.
+        (vec!["--json", "/nonexistent-dir/b.json"], "does not exist"),
+        (vec!["--json", "/tmp/"], "names a directory"),
     ] {
         let out = lightlab().arg("bench").args(&args).output().unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);

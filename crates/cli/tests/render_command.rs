@@ -215,6 +215,21 @@ fn bad_input_is_an_error_not_a_panic() {
         ),
     ];
     let mut cases = cases;
+    // `-D res=16 -D res=8` kept the last without a word.
+    cases.push((
+        vec![
+            "render".into(),
+            repo()
+                .join("scenes/mitsuba/materials.xml")
+                .display()
+                .to_string(),
+            "-D".into(),
+            "res=16".into(),
+            "-D".into(),
+            "res=8".into(),
+        ],
+        "-D res is given twice",
+    ));
     // An expression matching no path within the bounce limit rendered black without a word.
     cases.push((
         vec![

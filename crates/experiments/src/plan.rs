@@ -5,7 +5,7 @@
 use crate::desc::{BudgetDesc, ExperimentDesc, ExperimentError, Value};
 use lightlab_integrators::IntegratorConfig;
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 
 /// One run of an experiment, everything resolved.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -100,10 +100,11 @@ fn scene_names(desc: &ExperimentDesc) -> Vec<String> {
     let sharing = |s: &Path, f: fn(&Path) -> Option<&std::ffi::OsStr>| -> Vec<&PathBuf> {
         scenes.iter().filter(|o| part(o, f) == part(s, f)).collect()
     };
-    // The last k components of a path, joined by '-'.
+    // The last k components of a path, joined by '-' (a root or drive is no name).
     let tail = |p: &Path, k: usize| {
         let parts: Vec<String> = p
             .components()
+            .filter(|c| !matches!(c, Component::RootDir | Component::Prefix(_)))
             .map(|c| c.as_os_str().to_string_lossy().into_owned())
             .collect();
         parts[parts.len().saturating_sub(k)..].join("-")
@@ -320,6 +321,10 @@ mod tests {
         assert_eq!(
             names(r#""../../x/s/box.ron", "../y/s/box.ron", "box.ron""#),
             ["x-s-box.ron", "y-s-box.ron", "box.ron"]
+        );
+        assert_eq!(
+            names(r#""/box.ron", "box.ron""#),
+            ["box.ron-1", "box.ron-2"]
         );
         assert_eq!(
             names(r#""a/c.ron", "b/c.ron", "a-c.ron", "a-c.xml""#),
