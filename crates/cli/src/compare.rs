@@ -34,7 +34,8 @@ pub struct CompareArgs {
     variance_b: Option<PathBuf>,
     /// Independent samples per pixel behind A's variance, its degrees of freedom plus one
     /// (default: from the OUT.json Lightlab wrote beside A: `spp` where its variance is
-    /// `Independent`, the replicates where it is `Replicates`).
+    /// `Independent`, the replicates where it is `Replicates`, the photon groups where it is
+    /// `CameraAndPhotonGroups`).
     #[arg(long)]
     samples_a: Option<u64>,
     /// Likewise for B.
@@ -81,14 +82,18 @@ fn stats_of(path: &std::path::Path) -> Option<serde_json::Value> {
 
 /// The independent samples per pixel behind an image's variance: `given`, else from the
 /// statistics Lightlab wrote beside it: its `spp` when the variance is s²/n over independent
-/// samples, its replicates when it is s²/R over replicate means.
+/// samples, its replicates when it is s²/R over replicate means, and its photon groups G for
+/// `PhotonMap`'s camera samples × photon groups, whose photon part has G − 1 degrees of freedom
+/// (the fewer of the two parts: conservative where Welch–Satterthwaite would give more).
 fn samples(stats: Option<&serde_json::Value>, given: Option<u64>) -> Option<u64> {
     given.or_else(|| {
         let variance = &stats?["pixel_variance"];
         if variance == "Independent" {
             stats?["spp"].as_u64()
         } else {
-            variance["Replicates"]["replicates"].as_u64()
+            variance["Replicates"]["replicates"]
+                .as_u64()
+                .or_else(|| variance["CameraAndPhotonGroups"]["groups"].as_u64())
         }
     })
 }

@@ -587,6 +587,15 @@ fn compare_two_renders() {
             "s.exr",
             vec!["--spp", "4", "-i", "Sppm(photons_per_pass: 1000)"],
         ),
+        (
+            "p.exr",
+            vec![
+                "--spp",
+                "4",
+                "-i",
+                "PhotonMap(photons: 2000, caustic_photons: 200)",
+            ],
+        ),
     ] {
         let mut a = args.clone();
         a.extend(["--resolution", "24x24"]);
@@ -616,6 +625,13 @@ fn compare_two_renders() {
     assert!(
         out.contains("t-corrected: variances from 16 and 16 samples per pixel"),
         "{out}"
+    );
+    // A photon map's variance has its 16 photon groups' G − 1 degrees of freedom, not spp − 1
+    // (it was taken as normal).
+    let (_, out, err) = run(&["p.exr", "a.exr"]);
+    assert!(
+        out.contains("t-corrected: variances from 16 and 16 samples per pixel"),
+        "{out}{err}"
     );
     let (code, out, err) = run(&["a.exr", "b.exr", "--samples-b", "1"]);
     assert!(
