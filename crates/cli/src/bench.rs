@@ -149,12 +149,7 @@ pub fn run(args: BenchArgs) -> Result<(), String> {
     // Said before the benchmark runs, not after it.
     if let Some(json) = &args.json {
         let dir = json.parent().filter(|d| !d.as_os_str().is_empty());
-        if json.is_dir()
-            || json
-                .as_os_str()
-                .to_string_lossy()
-                .ends_with(std::path::MAIN_SEPARATOR)
-        {
+        if crate::render::names_directory(json) {
             return Err(format!(
                 "--json {}: names a directory; give a file name",
                 json.display()

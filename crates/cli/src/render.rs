@@ -68,16 +68,20 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
     }
 }
 
+/// Whether an output path names a directory: one that exists, or any path ending in a separator.
+pub(crate) fn names_directory(path: &std::path::Path) -> bool {
+    path.is_dir()
+        || path
+            .as_os_str()
+            .to_string_lossy()
+            .ends_with(std::path::MAIN_SEPARATOR)
+}
+
 /// The EXR path for `-o`: `.exr` as given, no extension gets `.exr`; anything else is refused,
 /// since the PNG and JSON written beside it would take that name, and so is a directory.
 fn exr_path(output: &std::path::Path) -> Result<PathBuf, String> {
     // `-o out/` named a directory, and the files went beside it as out.exr, out.png, out.json.
-    if output.is_dir()
-        || output
-            .as_os_str()
-            .to_string_lossy()
-            .ends_with(std::path::MAIN_SEPARATOR)
-    {
+    if names_directory(output) {
         return Err(format!(
             "-o {}: names a directory; give the image's file name, e.g. {}",
             output.display(),
