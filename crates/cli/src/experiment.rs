@@ -203,7 +203,9 @@ pub fn report(args: ReportArgs) -> Result<(), String> {
     let planned = expand(&desc, &args.experiment).map_err(|e| e.to_string())?;
     // Not runs of another version of the experiment, or of other inputs.
     if let Some(found) = ExperimentIdentity::read(&out_dir) {
-        ExperimentIdentity::of(&desc, &args.experiment, &planned)?.check(&found, &out_dir)?;
+        let scenes = lightlab_experiments::runner::load_scenes(&desc, &args.experiment)?;
+        ExperimentIdentity::of(&desc, &args.experiment, &planned, &scenes)?
+            .check(&found, &out_dir)?;
     }
     let finished: std::collections::BTreeSet<&str> = runs.iter().map(|r| r.id.as_str()).collect();
     let unfinished: Vec<&str> = planned

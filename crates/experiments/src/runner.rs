@@ -60,12 +60,31 @@ pub struct ExperimentIdentity {
     pub inputs_hash: Option<String>,
 }
 
+/// Every scene of an experiment, loaded (`load_scene`) with its identifying text, by the path its
+/// runs name it with (the experiment file's directory joined with the path as listed).
+pub type LoadedScenes = BTreeMap<PathBuf, (Scene, String)>;
+
+/// Loads every scene of experiment `desc` (read from `path`) once: its identity hashes them, and
+/// its runs render them. A scene that cannot be built is an error before anything renders.
+pub fn load_scenes(desc: &ExperimentDesc, path: &Path) -> Result<LoadedScenes, String> {
+    let base = path.parent().unwrap_or(Path::new("."));
+    desc.scenes
+        .iter()
+        .map(|scene| {
+            let path = base.join(scene);
+            load_scene(&path, desc.resolution).map(|loaded| (path, loaded))
+        })
+        .collect()
+}
+
 impl ExperimentIdentity {
-    /// The identity of experiment `desc` (read from `path`) expanded into `runs`.
+    /// The identity of experiment `desc` (read from `path`) expanded into `runs`, with its
+    /// `scenes` loaded.
     pub fn of(
         desc: &ExperimentDesc,
         path: &Path,
         runs: &[RunSpec],
+        scenes: &LoadedScenes,
     ) -> Result<ExperimentIdentity, String> {
         let ids: String = runs
             .iter()
@@ -97,7 +116,9 @@ impl ExperimentIdentity {
             }
         }
         for scene in &desc.scenes {
-            let (_, text) = load_scene(&base.join(scene), desc.resolution)?;
+            let (_, text) = scenes
+                .get(&base.join(scene))
+                .ok_or_else(|| format!("{}: not loaded", scene.display()))?;
             inputs += &format!(
                 "\nscene:{}:{:016x}",
                 scene.display(),
@@ -319,7 +340,8 @@ pub fn run_experiment(
     let desc = load_experiment(path).map_err(|e| e.to_string())?;
     let mut runs = expand(&desc, path).map_err(|e| e.to_string())?;
     let total = runs.len();
-    let identity = ExperimentIdentity::of(&desc, path, &runs)?;
+    let mut loaded = load_scenes(&desc, path)?;
+    let identity = ExperimentIdentity::of(&desc, path, &runs, &loaded)?;
     if let Some((i, n)) = options.shard {
         runs = shard(runs, i, n);
     }
@@ -355,9 +377,11 @@ pub fn run_experiment(
         }
     }
     // A scene, loaded once, with its reference (found in the cache, rendered, or read).
-    let prepare =
+    let mut prepare =
         |run: &RunSpec, warnings: &mut Vec<String>| -> Result<(Scene, Reference), String> {
-            let (scene, text) = load_scene(&run.scene, desc.resolution)?;
+            let (scene, text) = loaded
+                .remove(&run.scene)
+                .ok_or_else(|| format!("{}: not loaded", run.scene.display()))?;
             warnings.extend(scene.warnings.iter().cloned());
             log(&format!(
                 "reference for {}: {}",
@@ -586,7 +610,7 @@ pub fn merge(
 ) -> Result<MergeOutcome, String> {
     let desc = load_experiment(path).map_err(|e| e.to_string())?;
     let runs = expand(&desc, path).map_err(|e| e.to_string())?;
-    let identity = ExperimentIdentity::of(&desc, path, &runs)?;
+    let identity = ExperimentIdentity::of(&desc, path, &runs, &load_scenes(&desc, path)?)?;
     if let Some(found) = ExperimentIdentity::read(out_dir)
         && holds_runs(out_dir)
     {
