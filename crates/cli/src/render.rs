@@ -293,6 +293,10 @@ fn image_mean(mean: [f64; 3], se: Option<[f64; 3]>, stats: &RenderStats) -> Stri
     };
     match se {
         Some(e) => format!("{m} ± ({:.2e}, {:.2e}, {:.2e}) ({from})", e[0], e[1], e[2]),
+        // One sample per pixel (a time budget spent before a second) has no spread to measure.
+        None if spp < 2 => format!(
+            "{m} (no standard error from {spp} sample per pixel; render more, or measure it across seeds)"
+        ),
         None => format!(
             "{m} (no standard error: this integrator's or sampler's passes are not independent; measure it across seeds)"
         ),

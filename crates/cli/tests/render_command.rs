@@ -481,6 +481,11 @@ fn outputs_never_overwrite_each_other() {
     for f in ["plain.exr", "plain.png", "plain.json"] {
         assert!(dir.join(f).is_file(), "{f} missing: {stdout}");
     }
+    // One sample has no spread: said so, not blamed on dependent passes.
+    assert!(
+        stdout.contains("no standard error from 1 sample per pixel"),
+        "{stdout}"
+    );
     let (w, h, _) = read_exr(&dir.join("plain.exr")).unwrap();
     assert_eq!((w, h), (4, 3));
     // A directory is no file name: `-o out/` wrote out.exr, out.png and out.json beside it.
