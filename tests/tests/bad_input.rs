@@ -607,6 +607,13 @@ fn mesh_file_errors_name_the_problem() {
             "vertex 9",
         ),
         (
+            // An index beyond 64 bits was called not an integer.
+            "huge.obj",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999999999\n",
+            4,
+            "vertex that does not exist",
+        ),
+        (
             "n.obj",
             "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n",
             5,

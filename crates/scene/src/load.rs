@@ -1038,6 +1038,18 @@ fn check_obj_syntax(file: &Path) -> Result<(), String> {
                                     KINDS[kind]
                                 ));
                             }
+                            // Digits beyond i64 name no item of any file.
+                            Err(_)
+                                if index
+                                    .trim_start_matches('-')
+                                    .bytes()
+                                    .all(|b| b.is_ascii_digit()) =>
+                            {
+                                return bad(&format!(
+                                    "a face refers to a {} that does not exist",
+                                    KINDS[kind]
+                                ));
+                            }
                             Err(_) => {
                                 return bad(&format!(
                                     "a face's {} index is not an integer",
