@@ -338,6 +338,7 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             .push(r);
     }
     let mut references: BTreeMap<PathBuf, crate::metrics::Image> = BTreeMap::new();
+    let mut class_references: BTreeMap<(PathBuf, String), crate::metrics::Image> = BTreeMap::new();
     // Per setting, what the HTML report shows besides the summary.
     let (mut settings, mut shown) = (Vec::new(), Vec::new());
     for ((scene, method, setting), rs) in &groups {
@@ -374,8 +375,9 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
         let bv = bias_variance(&slices, reference);
         let bv_se = bias_variance_se(&slices, reference);
         let ref_se = reference_se(&slices, reference);
-        // Each path class's reference layer and trial layers, for its reference standard error.
-        let class_ref_se = |class: &String| -> io::Result<Option<ReferenceSe>> {
+        // Each path class's reference layer (read once per reference) and trial layers, for its
+        // reference standard error.
+        let mut class_ref_se = |class: &String| -> io::Result<Option<ReferenceSe>> {
             let layers: Option<Vec<&[[f32; 3]]>> = trial_layers
                 .iter()
                 .map(|t| {
@@ -387,9 +389,13 @@ pub fn write_report(out_dir: &Path) -> io::Result<()> {
             let Some(layers) = layers else {
                 return Ok(None);
             };
-            let image = crate::reference::load_foreign(&file, Some(class), None)
-                .map_err(io::Error::other)?;
-            Ok(reference_se(&layers, &image))
+            let key = (file.clone(), class.clone());
+            if !class_references.contains_key(&key) {
+                let image = crate::reference::load_foreign(&file, Some(class), None)
+                    .map_err(io::Error::other)?;
+                class_references.insert(key.clone(), image);
+            }
+            Ok(reference_se(&layers, &class_references[&key]))
         };
         let class_se: Vec<Option<ReferenceSe>> = rs[0]
             .class_errors
