@@ -115,6 +115,20 @@ fn defaults_are_substituted_and_overridden_by_defines() {
 fn malformed_xml_and_unknown_parameters_are_located() {
     let (line, _, m) = err("malformed", &format!("{SENSOR}\n<bsdf type=\"diffuse\">\n"));
     assert!(line >= 5 && m.contains("not well-formed"), "{line}: {m}");
+    // A file that stops inside its root element was located at 1:1: now where it stops.
+    let truncated = dir("truncated").join("scene.xml");
+    std::fs::write(
+        &truncated,
+        format!("<scene version=\"3.0.0\">\n{SENSOR}\n<bsdf"),
+    )
+    .unwrap();
+    match import(&truncated, &[]) {
+        Err(SceneError::Invalid { line, message, .. }) => assert!(
+            line == 5 && message.contains("ends before its root element closes"),
+            "{line}: {message}"
+        ),
+        other => panic!("{other:?}"),
+    }
     let (line, col, m) = err(
         "unknown-param",
         &format!(

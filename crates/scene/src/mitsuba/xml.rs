@@ -178,12 +178,22 @@ fn read_file(
     let text = crate::text::read_text(path).map_err(|e| SceneError::reading(path, e))?;
     let file = Rc::new(path.to_path_buf());
     let doc = roxmltree::Document::parse(&text).map_err(|e| {
-        let pos = e.pos();
+        let (line, col) = match e {
+            // roxmltree places this at 1:1; the fault is where the file stops.
+            roxmltree::Error::UnclosedRootNode => crate::error::line_col(&text, text.len()),
+            _ => (e.pos().row as usize, e.pos().col as usize),
+        };
         SceneError::Invalid {
             path: path.to_path_buf(),
-            line: pos.row as usize,
-            col: pos.col as usize,
-            message: format!("not well-formed XML: {e}"),
+            line,
+            col,
+            message: match e {
+                roxmltree::Error::UnclosedRootNode => format!(
+                    "not well-formed XML: the file ends before its root element closes (is it \
+                     truncated?) [{e}]"
+                ),
+                _ => format!("not well-formed XML: {e}"),
+            },
         }
     })?;
     let locate = |node: roxmltree::Node| {
