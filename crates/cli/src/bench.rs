@@ -140,8 +140,9 @@ fn parse_spec(s: &str) -> Result<(String, IntegratorConfig, u32), String> {
         spp.trim().parse().ok().filter(|&n| n >= 1).ok_or_else(|| {
             format!("--integrator '{s}': samples per pixel must be an integer ≥ 1")
         })?;
-    let config =
-        IntegratorConfig::from_ron(ron).map_err(|e| format!("--integrator '{ron}': {e}"))?;
+    let config = IntegratorConfig::from_ron(ron).map_err(|e| {
+        format!("--integrator '{s}': the integrator '{ron}' before the last '@': {e}")
+    })?;
     Ok((ron.trim().to_string(), config, spp))
 }
 

@@ -152,6 +152,11 @@ fn bench_rejects_bad_flags() {
         (vec!["-i", "Path()"], "INTEGRATOR@SPP"),
         (vec!["-i", "Path()@0"], "≥ 1"),
         (vec!["-i", "Nope()@4"], "Nope"),
+        // The message quotes what was given, and which part of it is the integrator.
+        (
+            vec!["-i", "Path()@4@4"],
+            "'Path()@4@4': the integrator 'Path()@4' before the last '@'",
+        ),
         (vec!["--threads", "0"], "thread count"),
         (vec!["--trials", "0"], "--trials"),
         // Said at once, not after the whole benchmark.

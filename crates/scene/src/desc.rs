@@ -763,7 +763,7 @@ impl TryFrom<MotionRaw> for MotionDesc {
         }
         if let Some(w) = m.keys.windows(2).find(|w| !(w[0].time < w[1].time)) {
             return Err(format!(
-                "motion key times must increase strictly, got {} then {}",
+                "motion key times must increase strictly (as 32-bit floats), got {} then {}",
                 w[0].time, w[1].time
             ));
         }

@@ -315,7 +315,10 @@ fn transform(t: &Element) -> Result<DMat4, SceneError> {
                     _ => vector(c, 1.0)?,
                 };
                 if s.x == 0.0 || s.y == 0.0 || s.z == 0.0 {
-                    return Err(c.at.error("<scale> by zero collapses the shape"));
+                    return Err(c.at.error(
+                        "<scale> by zero collapses what the transform places (a shape, a light's \
+                         frame, texture coordinates) onto a plane or a point",
+                    ));
                 }
                 DMat4::from_scale(s)
             }
