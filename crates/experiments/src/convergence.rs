@@ -152,7 +152,7 @@ pub fn run(study: &Study, progress: &dyn lightlab_core::Progress) -> (Vec<Point>
                 .filter(|p| p.spp >= study.fit_from)
                 .map(|p| (p.spp as f64, p.mse, p.mse_se))
                 .collect();
-            if let Some(fit) = fit_power_law(&fit_pts, false) {
+            if let Some(fit) = fit_power_law(&fit_pts, None) {
                 rates.push(Rate {
                     function: f.name.into(),
                     sampler: sampler.name().into(),
@@ -212,7 +212,7 @@ pub fn coverage(
                 (spp as f64, mse, se)
             })
             .collect();
-        if let Some(fit) = fit_power_law(&pts, false)
+        if let Some(fit) = fit_power_law(&pts, None)
             && (fit.slope - true_slope).abs() <= fit.slope_ci95
         {
             covered += 1;

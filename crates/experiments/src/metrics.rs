@@ -343,12 +343,14 @@ pub fn efficiency(errors: &[f64], seconds: &[f64]) -> Efficiency {
 /// an error against samples or time.
 ///
 /// Method: weighted least squares of ln y on ln x, with each point's standard error in log space
-/// σᵢ = seᵢ/yᵢ (the delta method) — or, `pooled`, one σ² for all, the mean of the σᵢ² (for few
-/// trials per point, whose individual standard errors are too noisy to weight by). The slope's
-/// standard error is √(1/Σwᵢ(ln xᵢ − x̄)²), multiplied by √(χ²/(n − 2)) when that exceeds one (the
-/// points scatter more than their errors allow: the law does not hold exactly over the range;
-/// Birge 1932, as the Particle Data Group scales). The interval is ±1.96 of the unscaled error,
-/// or ±t₀.₉₇₅(n − 2) of the scaled one: the scale is then estimated from n − 2 residuals. Without
+/// σᵢ = seᵢ/yᵢ (the delta method) — or, `pooled: Some(T)`, one σ² for all, the mean of the σᵢ²
+/// (for few trials T per point, whose individual standard errors are too noisy to weight by). The
+/// slope's standard error is √(1/Σwᵢ(ln xᵢ − x̄)²), multiplied by √(χ²/(n − 2)) when that exceeds
+/// one (the points scatter more than their errors allow: the law does not hold exactly over the
+/// range; Birge 1932, as the Particle Data Group scales). The interval is ±t₀.₉₇₅ of the unscaled
+/// error on the pooled variance's n(T − 1) degrees of freedom (±1.96 with each point's own
+/// standard error, taken as known), or ±t₀.₉₇₅(n − 2) of the scaled one: the scale is then
+/// estimated from n − 2 residuals. Without
 /// standard errors (one trial) it is ordinary least squares with a Student-t interval on n − 2
 /// degrees of freedom. Points need independent errors: disjoint seeds at every x.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -370,7 +372,7 @@ pub struct Fit {
     pub excluded: Vec<f64>,
 }
 
-pub fn fit_power_law(points: &[(f64, f64, f64)], pooled: bool) -> Option<Fit> {
+pub fn fit_power_law(points: &[(f64, f64, f64)], pooled: Option<u32>) -> Option<Fit> {
     use statrs::distribution::{ContinuousCDF, StudentsT};
     let mut excluded = Vec::new();
     let mut pts = Vec::new();
@@ -395,8 +397,8 @@ pub fn fit_power_law(points: &[(f64, f64, f64)], pooled: bool) -> Option<Fit> {
         .iter()
         .map(|p| match (weighted, pooled) {
             (false, _) => 1.0,
-            (true, true) => 1.0 / pooled_var,
-            (true, false) => 1.0 / (p.2 * p.2),
+            (true, Some(_)) => 1.0 / pooled_var,
+            (true, None) => 1.0 / (p.2 * p.2),
         })
         .collect();
     let sw: f64 = w.iter().sum();
@@ -428,7 +430,16 @@ pub fn fit_power_law(points: &[(f64, f64, f64)], pooled: bool) -> Option<Fit> {
         match per_dof {
             // The residuals set the scale: an estimated variance on n − 2 degrees of freedom.
             Some(c) if c > 1.0 => (t_975().ok()? * (c / sxx).sqrt(), per_dof),
-            _ => (1.959_963_985 / sxx.sqrt(), per_dof),
+            // The pooled σ² is itself estimated, on n(T − 1) degrees of freedom.
+            _ => {
+                let critical = match pooled {
+                    Some(t) if t >= 2 => StudentsT::new(0.0, 1.0, nf * (t - 1) as f64)
+                        .map(|d| d.inverse_cdf(0.975))
+                        .ok()?,
+                    _ => 1.959_963_985,
+                };
+                (critical / sxx.sqrt(), per_dof)
+            }
         }
     } else if n > 2 {
         (t_975().ok()? * (chi2 / (nf - 2.0) / sxx).sqrt(), None)
@@ -627,14 +638,14 @@ mod tests {
                 )
             })
             .collect();
-        let f = fit_power_law(&pts, false).unwrap();
+        let f = fit_power_law(&pts, None).unwrap();
         assert!(
             (f.slope + 1.0).abs() < f.slope_ci95 && f.slope_ci95 < 0.01,
             "{f:?}"
         );
-        assert!(fit_power_law(&[(1.0, 1.0, 0.0)], false).is_none());
+        assert!(fit_power_law(&[(1.0, 1.0, 0.0)], None).is_none());
         assert!(
-            fit_power_law(&[(1.0, 1.0, 0.0), (2.0, 3.0, 0.0)], false)
+            fit_power_law(&[(1.0, 1.0, 0.0), (2.0, 3.0, 0.0)], None)
                 .unwrap()
                 .slope_ci95
                 .is_infinite()
@@ -645,7 +656,7 @@ mod tests {
         with_zero.push((1e5, -1e-9, 1e-9));
         with_zero.push((2e5, 0.0, 1e-9));
         with_zero.push((4e5, 1.9e-9, 1e-9));
-        let f = fit_power_law(&with_zero, false).unwrap();
+        let f = fit_power_law(&with_zero, None).unwrap();
         assert_eq!(
             (f.points, f.excluded.clone()),
             (10, vec![1e5, 2e5, 4e5]),
@@ -791,7 +802,7 @@ mod tests {
                 (x, 3.0 / x, 0.05 * 3.0 / x)
             })
             .collect();
-        let f = fit_power_law(&pts, false).unwrap();
+        let f = fit_power_law(&pts, None).unwrap();
         let ln2 = 2f64.ln();
         let sxx: f64 = (0..6)
             .map(|i| ((i as f64 - 2.5) * ln2).powi(2))
@@ -803,11 +814,18 @@ mod tests {
             "{f:?}"
         );
         assert!(f.chi2_per_dof.unwrap() < 1e-20);
+        // Pooled over 3 trials per point, the σ² is estimated on 6 · 2 = 12 degrees of freedom:
+        // Student's t₀.₉₇₅(12) = 2.1788 for 1.96 (the same weights here, all σ being equal).
+        let p = fit_power_law(&pts, Some(3)).unwrap();
+        assert!(
+            (p.slope_ci95 / f.slope_ci95 - 2.178_812_83 / 1.959_963_985).abs() < 1e-6,
+            "{p:?}"
+        );
         let mut off = pts.clone();
         // Twice the value with the same relative error: the weights, so Sxx, stay.
         off[5].1 *= 2.0;
         off[5].2 *= 2.0;
-        let g = fit_power_law(&off, false).unwrap();
+        let g = fit_power_law(&off, None).unwrap();
         // The scaled error's interval is Student's t on n − 2 = 4 degrees of freedom, not 1.96.
         let t4 = 2.776_445_105;
         let expected = t4 * (g.chi2_per_dof.unwrap() / sxx).sqrt();

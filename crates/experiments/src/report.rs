@@ -754,7 +754,10 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
             let mut b = Vec::new();
             let mut c = Vec::new();
             let mut no_efficiency = 0;
+            // The fewest trials behind a point: the pooled variance's degrees of freedom per point.
+            let mut fewest = u32::MAX;
             for trials in series[label].values() {
+                fewest = fewest.min(trials.len() as u32);
                 let (spp, _) = mean_se(&trials.iter().map(|p| p.spp).collect::<Vec<_>>());
                 let (time, _) = mean_se(&trials.iter().map(|p| p.wall_seconds).collect::<Vec<_>>());
                 let mse: Vec<f64> = trials.iter().map(|p| p.mse).collect();
@@ -773,7 +776,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
             c.sort_by(|x, y| x.0.total_cmp(&y.0));
             let fitted: Vec<(f64, f64, f64)> =
                 a.iter().filter(|p| p.0 >= fit_from).copied().collect();
-            let fit = fit_power_law(&fitted, true);
+            let fit = fit_power_law(&fitted, Some(fewest));
             let legend = match &fit {
                 Some(f) => fit_legend(label, f),
                 None => legend_with_dropped(label, &a),
@@ -860,6 +863,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
             for label in &order {
                 let mut a = Vec::new();
                 let mut b = Vec::new();
+                let mut fewest = u32::MAX;
                 for trials in series[label].values() {
                     let mse: Vec<f64> = trials
                         .iter()
@@ -868,6 +872,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                     if mse.is_empty() {
                         continue;
                     }
+                    fewest = fewest.min(mse.len() as u32);
                     let (spp, _) = mean_se(&trials.iter().map(|p| p.spp).collect::<Vec<_>>());
                     let (time, _) =
                         mean_se(&trials.iter().map(|p| p.wall_seconds).collect::<Vec<_>>());
@@ -879,7 +884,7 @@ fn write_plots(out_dir: &Path, rows: &[CsvRow]) -> io::Result<Plots> {
                 b.sort_by(|x, y| x.0.total_cmp(&y.0));
                 let fitted: Vec<(f64, f64, f64)> =
                     a.iter().filter(|p| p.0 >= fit_from).copied().collect();
-                let fit = fit_power_law(&fitted, true);
+                let fit = fit_power_law(&fitted, Some(fewest));
                 by_spp.push(Series {
                     label: fit
                         .as_ref()
