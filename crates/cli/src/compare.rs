@@ -123,11 +123,11 @@ pub fn run(args: CompareArgs) -> Result<(), String> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         return Err(format!("--alpha must be in (0, 1), got {}", args.alpha));
     }
-    if let Some(error) = &args.error {
-        let same = |input: &Path| {
-            std::fs::canonicalize(input)
-                .is_ok_and(|i| std::fs::canonicalize(error).is_ok_and(|e| e == i))
-        };
+    // An output that exists already may be one of the inputs under another name.
+    if let Some(error) = &args.error
+        && let Ok(target) = std::fs::canonicalize(error)
+    {
+        let same = |input: &Path| std::fs::canonicalize(input).is_ok_and(|i| i == target);
         let inputs = [
             Some(&args.a),
             Some(&args.b),

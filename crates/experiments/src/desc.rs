@@ -249,9 +249,8 @@ pub(crate) fn locate_after(text: &str, anchor: &str, needle: &str) -> (usize, us
 }
 
 impl ExperimentDesc {
-    /// Semantic checks; on failure returns (text to locate, message).
-    /// Checks the settings; `base` is the experiment file's directory, which scene paths are
-    /// relative to.
+    /// Semantic checks, with scene paths relative to `base` (the experiment file's directory); on
+    /// failure returns (text to locate, message).
     fn check(&self, base: &Path) -> Result<(), (String, String)> {
         let err = |needle: &str, m: String| Err((needle.to_string(), m));
         if self.name.is_empty()
